@@ -1,0 +1,1 @@
+//! Built-in models with analytic first and second derivatives.

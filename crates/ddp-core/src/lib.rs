@@ -18,6 +18,7 @@
 #![doc = include_str!("../examples/quickstart.rs")]
 #![doc = "```"]
 
+pub mod autodiff;
 pub mod cost;
 pub mod costs;
 pub mod dynamics;

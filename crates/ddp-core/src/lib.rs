@@ -19,18 +19,22 @@
 #![doc = "```"]
 
 pub mod autodiff;
+pub mod boxqp;
 pub mod cost;
 pub mod costs;
 pub mod dynamics;
 pub mod error;
 pub mod finite_diff;
+pub mod linear;
 pub mod models;
 pub mod problem;
+pub mod solver;
 
 pub use cost::{Cost, CostDerivatives, TerminalCost, TerminalDerivatives};
 pub use dynamics::Dynamics;
 pub use error::{Error, Result};
 pub use problem::{ControlBounds, Knot, Problem};
+pub use solver::{IterationLog, Method, Regularization, Report, Settings, Solver, Status};
 
 /// Column vector of `N` `f64`s.
 pub type Vector<const N: usize> = nalgebra::SVector<f64, N>;

@@ -51,7 +51,10 @@ fn seed<T: Scalar, const NX: usize, const NU: usize>(
     u: &Vector<NU>,
     mut set: impl FnMut(usize, f64) -> T,
 ) -> ([T; NX], [T; NU]) {
-    (std::array::from_fn(|i| set(i, x[i])), std::array::from_fn(|i| set(NX + i, u[i])))
+    (
+        std::array::from_fn(|i| set(i, x[i])),
+        std::array::from_fn(|i| set(NX + i, u[i])),
+    )
 }
 
 impl<const NX: usize, const NU: usize, M: DualDynamics<NX, NU>> Dynamics<NX, NU> for AutoDiff<M> {

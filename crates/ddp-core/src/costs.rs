@@ -292,7 +292,10 @@ impl<const NX: usize> ObstacleHinge<NX> {
         }
         check_indices::<NX>("indices", indices)?;
         if !(margin.is_finite() && margin >= 0.0) {
-            return Err(Error::invalid("margin", format!("must be finite and >= 0, got {margin}")));
+            return Err(Error::invalid(
+                "margin",
+                format!("must be finite and >= 0, got {margin}"),
+            ));
         }
         check_nonnegative("weight", [weight].iter())?;
         Ok(Self {
@@ -391,7 +394,10 @@ impl<const NX: usize, const NU: usize> Cost<NX, NU> for CostSum<NX, NU> {
         self.terms.iter().map(|(w, t)| w * t.value(x, u)).sum()
     }
     fn add_derivatives(&self, x: &Vector<NX>, u: &Vector<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
-        self.terms.iter().map(|(wi, t)| t.add_derivatives(x, u, w * wi, d)).sum()
+        self.terms
+            .iter()
+            .map(|(wi, t)| t.add_derivatives(x, u, w * wi, d))
+            .sum()
     }
 }
 

@@ -155,8 +155,16 @@ pub fn check_derivatives<const NX: usize, const NU: usize, D: Dynamics<NX, NU>>(
     fd.jacobians(x, u, &mut gx, &mut gu);
     let mut second_order = 0.0;
     if model.has_second_order() {
-        let (mut a_xx, mut a_ux, mut a_uu) = (Matrix::<NX, NX>::zeros(), Matrix::<NU, NX>::zeros(), Matrix::<NU, NU>::zeros());
-        let (mut b_xx, mut b_ux, mut b_uu) = (Matrix::<NX, NX>::zeros(), Matrix::<NU, NX>::zeros(), Matrix::<NU, NU>::zeros());
+        let (mut a_xx, mut a_ux, mut a_uu) = (
+            Matrix::<NX, NX>::zeros(),
+            Matrix::<NU, NX>::zeros(),
+            Matrix::<NU, NU>::zeros(),
+        );
+        let (mut b_xx, mut b_ux, mut b_uu) = (
+            Matrix::<NX, NX>::zeros(),
+            Matrix::<NU, NX>::zeros(),
+            Matrix::<NU, NU>::zeros(),
+        );
         model.add_second_order(x, u, lambda, &mut a_xx, &mut a_ux, &mut a_uu);
         fd.add_second_order(x, u, lambda, &mut b_xx, &mut b_ux, &mut b_uu);
         second_order = (a_xx - b_xx).amax().max((a_ux - b_ux).amax()).max((a_uu - b_uu).amax());

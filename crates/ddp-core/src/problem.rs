@@ -82,7 +82,10 @@ impl<const NX: usize, const NU: usize> Problem<NX, NU> {
         terminal: Arc<dyn TerminalCost<NX>>,
         horizon: usize,
     ) -> Result<Self> {
-        let knot = Knot { dynamics, cost: running };
+        let knot = Knot {
+            dynamics,
+            cost: running,
+        };
         Self::from_knots(x0, vec![knot; horizon], terminal)
     }
 
@@ -168,7 +171,12 @@ impl<const NX: usize, const NU: usize> Problem<NX, NU> {
     /// Total cost of a trajectory.
     pub fn cost(&self, xs: &[Vector<NX>], us: &[Vector<NU>]) -> Result<f64> {
         self.check_lengths(us.len(), xs.len())?;
-        let running: f64 = self.knots.iter().enumerate().map(|(k, m)| m.cost.value(&xs[k], &us[k])).sum();
+        let running: f64 = self
+            .knots
+            .iter()
+            .enumerate()
+            .map(|(k, m)| m.cost.value(&xs[k], &us[k]))
+            .sum();
         Ok(running + self.terminal.value(&xs[self.knots.len()]))
     }
 

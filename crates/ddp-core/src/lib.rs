@@ -27,7 +27,9 @@ pub mod error;
 pub mod finite_diff;
 pub mod linear;
 pub mod models;
+pub mod penalty;
 pub mod problem;
+pub mod reference;
 pub mod solver;
 
 pub use cost::{Cost, CostDerivatives, TerminalCost, TerminalDerivatives};

@@ -434,13 +434,7 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
     /// Errors only on bad input (a horizon other than the workspace's); the outcome of the
     /// algorithm is [`Report::status`].
     pub fn solve(&mut self, problem: &Problem<NX, NU>) -> Result<&Report> {
-        if problem.horizon() != self.n {
-            return Err(Error::Shape {
-                field: "problem.horizon".into(),
-                got: problem.horizon().to_string(),
-                expected: format!("{} (the horizon this solver was created for)", self.n),
-            });
-        }
+        self.check_horizon(problem)?;
         let start = Instant::now();
         let s = self.settings;
         let r = &mut self.report;
@@ -564,6 +558,39 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
         r.mu = mu;
         r.solve_time = start.elapsed();
         Ok(&self.report)
+    }
+
+    fn check_horizon(&self, problem: &Problem<NX, NU>) -> Result<()> {
+        if problem.horizon() != self.n {
+            return Err(Error::Shape {
+                field: "problem.horizon".into(),
+                got: problem.horizon().to_string(),
+                expected: format!("{} (the horizon this solver was created for)", self.n),
+            });
+        }
+        Ok(())
+    }
+
+    /// Phase 1 of an iteration, exposed for benchmarks and solvers built on this one: the
+    /// derivatives of dynamics and costs along the workspace trajectory.
+    pub fn linearize(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
+        self.check_horizon(problem)?;
+        self.compute_derivatives(problem);
+        Ok(())
+    }
+
+    /// Phase 2: the backward pass with regularisation `mu`. `Ok(false)` when `Q_uu` was not
+    /// positive definite at some knot.
+    pub fn backward(&mut self, problem: &Problem<NX, NU>, mu: f64) -> Result<bool> {
+        self.check_horizon(problem)?;
+        Ok(self.backward_pass(problem, mu).is_ok())
+    }
+
+    /// Phase 3: rolls out the new policy with step `alpha` (into scratch buffers, leaving the
+    /// trajectory unchanged) and returns its cost.
+    pub fn forward(&mut self, problem: &Problem<NX, NU>, alpha: f64) -> Result<f64> {
+        self.check_horizon(problem)?;
+        Ok(self.forward_pass(problem, alpha))
     }
 
     /// Derivatives of dynamics and costs along `(xs, us)`.

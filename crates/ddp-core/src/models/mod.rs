@@ -1,1 +1,83 @@
 //! Built-in models with analytic first and second derivatives.
+//!
+//! | model | `NX` | `NU` | state | control | discretisation | matches |
+//! |---|---:|---:|---|---|---|---|
+//! | [`DoubleIntegrator2D`] | 4 | 2 | `px, py, vx, vy` | `ax, ay` | exact zero-order hold | benchmark P3, Safe-CDDP point robot |
+//! | [`Unicycle`] | 3 | 2 | `px, py, theta` | `v, omega` | explicit Euler | benchmark P1 (Crocoddyl `ActionModelUnicycle`), DDPEN robot |
+//! | [`Car`] | 4 | 2 | `px, py, theta, v` | `omega, a` | explicit Euler | benchmark P2, Safe-CDDP car |
+//! | [`DifferentialDrive`] | 3 | 2 | `px, py, theta` | `v_l, v_r` | Euler with midpoint heading | Turtlebot3-style robots |
+//! | [`Quadrotor`] | 12 | 4 | `p, (phi, theta, psi), v, (p, q, r)` | thrust, body torques | explicit Euler | Safe-CDDP quadrotor |
+//! | [`ArmBase`] | 10 | 5 | `x, y, theta, q1, q2` and rates | base force, base torque, joint torques | semi-implicit Euler | IDNP satellite with a 2-link arm |
+//!
+//! Every model is an immutable `Copy` value, validated by its constructor (an error names the
+//! field), and implements both [`Dynamics`](crate::Dynamics) (hand-written first derivatives,
+//! contracted second derivatives, no allocation) and
+//! [`DualDynamics`](crate::autodiff::DualDynamics) (the same step written for any scalar, so
+//! [`AutoDiff`](crate::autodiff::AutoDiff) can cross-check the analytic derivatives).
+//!
+//! ```
+//! use ddp_core::models::Unicycle;
+//! use ddp_core::{Dynamics, Vector};
+//! let model = Unicycle::new(0.1)?;
+//! let x1 = model.step(&Vector::<3>::new(-1.0, -1.0, 1.0), &Vector::<2>::new(1.0, 0.5));
+//! assert!((x1[2] - 1.05).abs() < 1e-15);
+//! # Ok::<(), ddp_core::Error>(())
+//! ```
+
+mod arm_base;
+mod car;
+mod differential_drive;
+mod double_integrator;
+mod quadrotor;
+mod unicycle;
+
+pub use arm_base::{ArmBase, ArmBaseParams};
+pub use car::Car;
+pub use differential_drive::DifferentialDrive;
+pub use double_integrator::DoubleIntegrator2D;
+pub use quadrotor::Quadrotor;
+pub use unicycle::Unicycle;
+
+use crate::{Error, Matrix, Result};
+
+/// Sets `m` to the identity (a slice fill: nalgebra's element iterators are slow in hot loops).
+#[inline]
+fn set_identity<const N: usize>(m: &mut Matrix<N, N>) {
+    m.as_mut_slice().fill(0.0);
+    for i in 0..N {
+        m[(i, i)] = 1.0;
+    }
+}
+
+/// Sets every entry of `m` to zero.
+#[inline]
+fn set_zero<const R: usize, const C: usize>(m: &mut Matrix<R, C>) {
+    m.as_mut_slice().fill(0.0);
+}
+
+/// `value` if it is finite and strictly positive, else an error naming `field`.
+fn positive(field: &str, value: f64) -> Result<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(Error::invalid(field, format!("must be finite and > 0, got {value}")))
+    }
+}
+
+/// `value` if it is finite and not negative, else an error naming `field`.
+fn nonnegative(field: &str, value: f64) -> Result<f64> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(Error::invalid(field, format!("must be finite and >= 0, got {value}")))
+    }
+}
+
+/// `value` if it is finite, else an error naming `field`.
+fn finite(field: &str, value: f64) -> Result<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(Error::invalid(field, format!("must be finite, got {value}")))
+    }
+}

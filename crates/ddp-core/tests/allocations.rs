@@ -1,0 +1,81 @@
+//! Repeated solves allocate nothing: every buffer lives in the solver workspace.
+//! (One test in this binary, so no other test thread allocates while counting.)
+
+use std::sync::Arc;
+
+use ddp_core::costs::{
+    ControlSquared, CostSum, ObstacleHinge, QuadraticCost, QuadraticTerminal, SmoothDistance, StateOnly,
+};
+use ddp_core::models::{Car, Unicycle};
+use ddp_core::{ControlBounds, Method, Problem, Settings, Solver, Vector};
+
+fn count(f: impl FnOnce()) -> u64 {
+    allocation_counter::measure(f).count_total
+}
+
+#[test]
+fn repeated_solves_allocate_nothing() {
+    // P1 (unicycle), iLQR and full DDP.
+    let p1 = Problem::new(
+        Vector::<3>::new(-1.0, -1.0, 1.0),
+        Arc::new(Unicycle::new(0.1).unwrap()),
+        Arc::new(QuadraticCost::weighted_norms(10.0, 1.0).unwrap()),
+        Arc::new(QuadraticTerminal::diagonal(&[100.0; 3], Vector::zeros()).unwrap()),
+        100,
+    )
+    .unwrap();
+    for method in [Method::Ilqr, Method::Ddp] {
+        let mut solver = Solver::new(
+            &p1,
+            Settings {
+                method,
+                ..Settings::default()
+            },
+        )
+        .unwrap();
+        solver.solve(&p1).unwrap();
+        let n = count(|| {
+            for _ in 0..3 {
+                solver.reset();
+                solver.solve(&p1).unwrap();
+                solver.shift();
+                solver.solve(&p1).unwrap();
+            }
+        });
+        assert_eq!(n, 0, "{method:?}: repeated solves allocated {n} times");
+    }
+
+    // The car with box bounds (box-DDP) and a DDPEN-style cost sum with obstacles.
+    let running = CostSum::<4, 2>::new()
+        .with(1.0, Arc::new(ControlSquared::new(0.1).unwrap()))
+        .with(
+            0.1,
+            Arc::new(StateOnly(SmoothDistance::goal([4.0, 0.5], [0, 1], 1e-2, 1.0).unwrap())),
+        )
+        .with(
+            5.0,
+            Arc::new(StateOnly(
+                ObstacleHinge::new(vec![[2.0, 0.3], [2.2, 0.1]], 0.5, [0, 1], 1.0).unwrap(),
+            )),
+        );
+    let car = Problem::new(
+        Vector::<4>::zeros(),
+        Arc::new(Car::new(0.05).unwrap()),
+        Arc::new(running),
+        Arc::new(
+            QuadraticTerminal::diagonal(&[100.0, 100.0, 10.0, 10.0], Vector::<4>::new(4.0, 0.5, 0.0, 0.0)).unwrap(),
+        ),
+        120,
+    )
+    .unwrap()
+    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap());
+    let mut solver = Solver::new(&car, Settings::default()).unwrap();
+    solver.solve(&car).unwrap();
+    let n = count(|| {
+        for _ in 0..3 {
+            solver.reset();
+            solver.solve(&car).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "box-DDP solves allocated {n} times");
+}

@@ -1,0 +1,165 @@
+//! Bad input is an `Error` naming the field (and index) and the reason; never a panic.
+
+use std::sync::Arc;
+
+use ddp_core::costs::{ControlSquared, ObstacleHinge, QuadraticCost, QuadraticTerminal, SmoothDistance};
+use ddp_core::linear::LinearDynamics;
+use ddp_core::{ControlBounds, Error, Matrix, Problem, Settings, Solver, Vector};
+
+fn lq(horizon: usize, x0: Vector<2>) -> ddp_core::Result<Problem<2, 1>> {
+    Problem::new(
+        x0,
+        Arc::new(LinearDynamics::new(
+            Matrix::<2, 2>::new(1.0, 0.1, 0.0, 1.0),
+            Matrix::<2, 1>::new(0.0, 0.1),
+            Vector::zeros(),
+        )?),
+        Arc::new(QuadraticCost::diagonal(
+            &[1.0, 1.0],
+            &[0.1],
+            Vector::zeros(),
+            Vector::zeros(),
+        )?),
+        Arc::new(QuadraticTerminal::diagonal(&[10.0, 10.0], Vector::zeros())?),
+        horizon,
+    )
+}
+
+fn message(e: Error) -> String {
+    e.to_string()
+}
+
+#[test]
+fn empty_horizon_is_rejected() {
+    assert_eq!(lq(0, Vector::zeros()).err(), Some(Error::EmptyHorizon));
+}
+
+#[test]
+fn nan_and_inf_in_x0_name_the_index() {
+    let e = lq(10, Vector::<2>::new(0.0, f64::NAN)).err().unwrap();
+    assert!(
+        matches!(&e, Error::NotFinite { field, index: 1, .. } if field == "x0"),
+        "{e}"
+    );
+    let mut p = lq(10, Vector::zeros()).unwrap();
+    let e = p.set_x0(Vector::<2>::new(f64::INFINITY, 0.0)).unwrap_err();
+    assert!(message(e).starts_with("x0[0] is not finite"));
+}
+
+#[test]
+fn negative_and_nan_weights_name_the_field() {
+    let e = QuadraticCost::<2, 1>::diagonal(&[1.0, -2.0], &[0.1], Vector::zeros(), Vector::zeros()).unwrap_err();
+    assert_eq!(message(e), "q[1] is invalid: weight must be non-negative, got -2");
+    let e = QuadraticCost::<2, 1>::diagonal(&[1.0, 1.0], &[f64::NAN], Vector::zeros(), Vector::zeros()).unwrap_err();
+    assert!(
+        matches!(&e, Error::NotFinite { field, index: 0, .. } if field == "r"),
+        "{e}"
+    );
+    assert!(ControlSquared::new(-1.0).is_err());
+    assert!(SmoothDistance::<3>::goal([0.0, 0.0], [0, 1], 0.0, 1.0)
+        .unwrap_err()
+        .to_string()
+        .contains("eps"));
+    assert!(ObstacleHinge::<3>::new(vec![[0.0, f64::NAN]], 1.0, [0, 1], 1.0)
+        .unwrap_err()
+        .to_string()
+        .contains("points[0]"));
+}
+
+#[test]
+fn non_psd_and_asymmetric_weights_are_rejected() {
+    let q = Matrix::<2, 2>::new(1.0, 2.0, 2.0, 1.0); // eigenvalues 3 and -1
+    let e = QuadraticCost::<2, 1>::new(q, Matrix::identity(), Vector::zeros(), Vector::zeros()).unwrap_err();
+    assert!(matches!(&e, Error::NotPsd { field, .. } if field == "q"), "{e}");
+    assert!(message(e).contains("eigenvalue"));
+    let asym = Matrix::<2, 2>::new(1.0, 0.5, 0.0, 1.0);
+    let e = QuadraticTerminal::<2>::new(asym, Vector::zeros()).unwrap_err();
+    assert!(message(e).contains("not symmetric"));
+}
+
+#[test]
+fn bad_indices_are_rejected() {
+    let e = SmoothDistance::<3>::goal([0.0, 0.0], [0, 3], 1e-3, 1.0).unwrap_err();
+    assert_eq!(
+        message(e),
+        "indices[1] is invalid: state index 3 out of range for a 3-dimensional state"
+    );
+}
+
+#[test]
+fn inverted_bounds_name_the_index() {
+    let e = ControlBounds::<2>::new(Vector::<2>::new(-1.0, 2.0), Vector::<2>::new(1.0, 1.0)).unwrap_err();
+    assert!(message(e).starts_with("u_min[1] is invalid"));
+}
+
+#[test]
+fn invalid_settings_name_the_field() {
+    let p = lq(10, Vector::zeros()).unwrap();
+    for (settings, field) in [
+        (
+            Settings {
+                max_iterations: 0,
+                ..Settings::default()
+            },
+            "settings.max_iterations",
+        ),
+        (
+            Settings {
+                mu_factor: 1.0,
+                ..Settings::default()
+            },
+            "settings.mu_factor",
+        ),
+        (
+            Settings {
+                step_factor: 1.5,
+                ..Settings::default()
+            },
+            "settings.step_factor",
+        ),
+        (
+            Settings {
+                gradient_tolerance: f64::NAN,
+                ..Settings::default()
+            },
+            "settings.gradient_tolerance",
+        ),
+    ] {
+        let e = Solver::new(&p, settings).unwrap_err();
+        assert!(message(e).starts_with(field), "expected an error naming {field}");
+    }
+}
+
+#[test]
+fn wrong_guess_length_and_horizon_are_shape_errors() {
+    let p = lq(10, Vector::zeros()).unwrap();
+    let mut solver = Solver::new(&p, Settings::default()).unwrap();
+    let e = solver.set_controls(&[Vector::<1>::zeros(); 9]).unwrap_err();
+    assert_eq!(message(e), "us has shape (9, 1), expected (10, 1)");
+    let e = solver.set_controls(&[Vector::<1>::new(f64::NAN); 10]).unwrap_err();
+    assert!(message(e).starts_with("us[0][0] is not finite"));
+    let other = lq(11, Vector::zeros()).unwrap();
+    assert!(matches!(solver.solve(&other).unwrap_err(), Error::Shape { .. }));
+}
+
+#[test]
+fn non_finite_dynamics_is_a_status_not_a_panic() {
+    // A model that blows up: the solve reports NumericalError instead of panicking.
+    let p = Problem::new(
+        Vector::<2>::new(1.0, 0.0),
+        Arc::new(
+            LinearDynamics::new(
+                Matrix::<2, 2>::new(1e300, 0.0, 0.0, 1e300),
+                Matrix::<2, 1>::zeros(),
+                Vector::zeros(),
+            )
+            .unwrap(),
+        ),
+        Arc::new(QuadraticCost::diagonal(&[1.0, 1.0], &[0.1], Vector::zeros(), Vector::zeros()).unwrap()),
+        Arc::new(QuadraticTerminal::diagonal(&[10.0, 10.0], Vector::zeros()).unwrap()),
+        5,
+    )
+    .unwrap();
+    let mut solver = Solver::new(&p, Settings::default()).unwrap();
+    assert_eq!(solver.solve(&p).unwrap().status, ddp_core::Status::NumericalError);
+}

@@ -25,6 +25,7 @@ pub mod costs;
 pub mod dynamics;
 pub mod error;
 pub mod finite_diff;
+pub mod kernels;
 pub mod linear;
 pub mod models;
 pub mod penalty;

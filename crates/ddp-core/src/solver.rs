@@ -26,6 +26,7 @@ use std::time::{Duration, Instant};
 
 use crate::boxqp::box_qp;
 use crate::error::{check_finite, Error, Result};
+use crate::kernels::{add_sym_tr_mul, add_sym_tr_mul2, mul, mul_vec, tr_mul, tr_mul_vec};
 use crate::{CostDerivatives, Matrix, Problem, TerminalDerivatives, Vector};
 
 /// iLQR (first-order dynamics) or full DDP (adds `V_x' . f_xx` terms when the model has them).
@@ -594,6 +595,7 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
     }
 
     /// Derivatives of dynamics and costs along `(xs, us)`.
+    #[inline(never)]
     fn compute_derivatives(&mut self, problem: &Problem<NX, NU>) {
         for (k, knot) in problem.knots().iter().enumerate() {
             let (x, u) = (&self.xs[k], &self.us[k]);
@@ -606,6 +608,7 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
         problem.terminal().add_derivatives(&self.xs[self.n], 1.0, &mut self.l_n);
     }
 
+    #[inline(never)]
     fn backward_pass(&mut self, problem: &Problem<NX, NU>, mu: f64) -> std::result::Result<(), NotPositiveDefinite> {
         let ddp = self.settings.method == Method::Ddp;
         let bounds = problem.bounds();
@@ -618,13 +621,13 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
             let (fx, fu, l) = (&self.fx[k], &self.fu[k], &self.l[k]);
             let v_x = &self.v_x[k + 1];
             let v_xx = &self.v_xx[k + 1];
-            let q_x = l.lx + fx.tr_mul(v_x);
-            let q_u = l.lu + fu.tr_mul(v_x);
-            let v_xx_fx = v_xx * fx;
-            let v_xx_fu = v_xx * fu;
-            let mut q_xx = l.lxx + fx.tr_mul(&v_xx_fx);
-            let mut q_uu = l.luu + fu.tr_mul(&v_xx_fu);
-            let mut q_ux = l.lux + fu.tr_mul(&v_xx_fx);
+            let q_x = l.lx + tr_mul_vec(fx, v_x);
+            let q_u = l.lu + tr_mul_vec(fu, v_x);
+            let v_xx_fx = mul(v_xx, fx);
+            let v_xx_fu = mul(v_xx, fu);
+            let mut q_xx = add_sym_tr_mul(&l.lxx, fx, &v_xx_fx);
+            let mut q_uu = l.luu + tr_mul(fu, &v_xx_fu);
+            let mut q_ux = l.lux + tr_mul(fu, &v_xx_fx);
             if ddp {
                 let knot = &problem.knots()[k];
                 if knot.dynamics.has_second_order() {
@@ -644,6 +647,7 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
             };
             q_uu_r = 0.5 * (q_uu_r + q_uu_r.transpose());
 
+            let control_reg = self.settings.regularization == Regularization::Control;
             let (k_ff, k_fb, grad) = match bounds {
                 None => {
                     let chol = q_uu_r.cholesky().ok_or(NotPositiveDefinite)?;
@@ -677,12 +681,24 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
                 }
             };
             self.gradient += grad;
+            let q_uu_k = mul_vec(&q_uu, &k_ff);
             self.dv1 += k_ff.dot(&q_u);
-            self.dv2 += 0.5 * k_ff.dot(&(q_uu * k_ff));
-            let kt_quu = k_fb.transpose() * q_uu;
-            self.v_x[k] = q_x + kt_quu * k_ff + k_fb.tr_mul(&q_u) + q_ux.tr_mul(&k_ff);
-            let v = q_xx + kt_quu * k_fb + k_fb.tr_mul(&q_ux) + q_ux.tr_mul(&k_fb);
-            self.v_xx[k] = 0.5 * (v + v.transpose());
+            self.dv2 += 0.5 * k_ff.dot(&q_uu_k);
+            // Tassa's update, factored:
+            //   V_x  = Q_x  + K^T (Q_uu k + Q_u)  + Q_ux^T k
+            //   V_xx = Q_xx + K^T (Q_uu K + Q_ux) + Q_ux^T K   (symmetric for any K).
+            // Unbounded with Q_uu + mu I: (Q_uu + mu I) K = -Q_ux and likewise for k, so the
+            // brackets are -mu K and -mu k and both collapse to one product with Q_ux - mu K.
+            if bounds.is_none() && control_reg {
+                let g = q_ux - mu * k_fb;
+                self.v_x[k] = q_x + tr_mul_vec(&g, &k_ff);
+                self.v_xx[k] = add_sym_tr_mul(&q_xx, &g, &k_fb);
+            } else {
+                let m_k = q_uu_k + q_u;
+                let m_kk = mul(&q_uu, &k_fb) + q_ux;
+                self.v_x[k] = q_x + tr_mul_vec(&k_fb, &m_k) + tr_mul_vec(&q_ux, &k_ff);
+                self.v_xx[k] = add_sym_tr_mul2(&q_xx, &k_fb, &m_kk, &q_ux, &k_fb);
+            }
             self.k_ff[k] = k_ff;
             self.k_fb[k] = k_fb;
         }
@@ -690,13 +706,14 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
     }
 
     /// Rolls out the feedback policy with step `alpha` into `(xs_try, us_try)`; returns its cost.
+    #[inline(never)]
     fn forward_pass(&mut self, problem: &Problem<NX, NU>, alpha: f64) -> f64 {
         let bounds = problem.bounds();
         let mut cost = 0.0;
         self.xs_try[0] = *problem.x0();
         for (k, knot) in problem.knots().iter().enumerate() {
             let x = self.xs_try[k];
-            let mut u = self.us[k] + alpha * self.k_ff[k] + self.k_fb[k] * (x - self.xs[k]);
+            let mut u = self.us[k] + alpha * self.k_ff[k] + mul_vec(&self.k_fb[k], &(x - self.xs[k]));
             if let Some(b) = bounds {
                 u = b.clamp(&u);
             }

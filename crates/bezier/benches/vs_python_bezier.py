@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""Time the PyPI `bezier` package's arc length on the cubic our Rust timing uses, and compare.
+
+Usage:
+    python3 crates/bezier/benches/vs_python_bezier.py [--rust CMD] [--accuracy A]
+
+CMD is a command that prints `arclen_ns=<ns per call> ...` (default:
+`cargo run --release -q -p bezier --example arclen_timing -- <A>`); pass `--rust none` to time
+Python only. Later the same script can time our Python binding the same way.
+Needs `pip install bezier numpy`.
+"""
+import argparse
+import re
+import shlex
+import subprocess
+import sys
+import timeit
+
+CUBIC = [(0.0, 0.0), (0.3, 0.9), (0.7, 0.9), (1.0, 0.0)]
+
+
+def time_python_bezier():
+    try:
+        import bezier  # the PyPI package
+        import numpy as np
+    except ImportError as e:  # pragma: no cover - environment dependent
+        sys.exit(f"needs the PyPI packages bezier and numpy: {e}")
+    nodes = np.asfortranarray(np.array(CUBIC).T)
+    curve = bezier.Curve(nodes, degree=3)
+    length = curve.length
+    number = 2000
+    best = min(timeit.repeat(lambda: bezier.Curve(nodes, degree=3).length, number=number, repeat=7)) / number
+    prebuilt = min(timeit.repeat(lambda: curve.length, number=number, repeat=7)) / number
+    print(f"python bezier: {prebuilt * 1e9:,.0f} ns per .length on a pre-built Curve")
+    return best * 1e9, prebuilt * 1e9, length, bezier.__version__
+
+
+def time_rust(cmd):
+    out = subprocess.run(cmd, shell=True, check=True, capture_output=True, text=True).stdout
+    m = re.search(r"arclen_ns=([0-9.eE+-]+)", out)
+    if not m:
+        sys.exit(f"no arclen_ns=... in the output of {cmd!r}:\n{out}")
+    inv = re.search(r"inv_arclen_ns=([0-9.eE+-]+)", out)
+    length = re.search(r"length=([0-9.eE+-]+)", out)
+    return float(m.group(1)), (float(inv.group(1)) if inv else None), (float(length.group(1)) if length else None)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rust", default=None, help="command printing arclen_ns=...; 'none' to skip")
+    ap.add_argument("--accuracy", type=float, default=1e-10)
+    args = ap.parse_args()
+    py_ns, py_prebuilt_ns, py_len, version = time_python_bezier()
+    print(f"python bezier {version}: length={py_len:.15f}  {py_ns:,.0f} ns per Curve(...).length")
+    if args.rust == "none":
+        return
+    cmd = args.rust or (
+        "cargo run --release -q -p bezier --example arclen_timing -- " + shlex.quote(repr(args.accuracy))
+    )
+    rs_ns, inv_ns, rs_len = time_rust(cmd)
+    print(f"rust bezier (accuracy {args.accuracy:g}): length={rs_len:.15f}  {rs_ns:,.1f} ns per arclen"
+          + (f", {inv_ns:,.1f} ns per inv_arclen" if inv_ns is not None else ""))
+    if rs_len is not None:
+        print(f"length difference: {abs(rs_len - py_len):.2e}")
+    print(f"speed ratio (python Curve(...).length / rust): {py_ns / rs_ns:,.0f}x")
+    print(f"speed ratio (python pre-built .length / rust): {py_prebuilt_ns / rs_ns:,.0f}x")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,1 +1,60 @@
+//! `ddpkit._ddpkit`: the Python bindings of ddp-core.
+//!
+//! A thin layer: numpy arrays in, numpy arrays out; every error a `ddpkit.DdpError`; the GIL
+//! released during solves. Python sees runtime dimensions; each call dispatches to the
+//! const-generic ddp-core types of one compiled `(nx, nu)` pair ([`dims`]).
+//!
+//! | module | Python |
+//! |---|---|
+//! | [`errors`] | `DdpError`, `ShapeError`, `NotFiniteError`, `InvalidInputError` |
+//! | [`models`] | `Dynamics` and the built-in models, `LinearDynamics` |
+//! | [`costs`] | `Cost` and the cost terms |
+//! | [`problem`] | `Problem` |
+//! | [`solver`] | `Solver`, `Solution`, `default_settings` |
 
+#[macro_use]
+pub mod dims;
+pub mod convert;
+pub mod costs;
+pub mod errors;
+pub mod models;
+pub mod problem;
+pub mod solver;
+
+use pyo3::prelude::*;
+
+/// The compiled `(nx, nu)` pairs, as a list of tuples.
+#[pyfunction]
+fn supported_dimensions() -> Vec<(usize, usize)> {
+    dims::PAIRS.to_vec()
+}
+
+/// The extension module.
+#[pymodule]
+fn _ddpkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    errors::register(m)?;
+    m.add_class::<models::Dynamics>()?;
+    m.add_class::<models::Unicycle>()?;
+    m.add_class::<models::Car>()?;
+    m.add_class::<models::DoubleIntegrator2D>()?;
+    m.add_class::<models::DifferentialDrive>()?;
+    m.add_class::<models::Quadrotor>()?;
+    m.add_class::<models::ArmBase>()?;
+    m.add_class::<models::LinearDynamics>()?;
+    m.add_class::<costs::Cost>()?;
+    m.add_class::<costs::QuadraticCost>()?;
+    m.add_class::<costs::QuadraticTerminal>()?;
+    m.add_class::<costs::ControlSquared>()?;
+    m.add_class::<costs::SmoothDistance>()?;
+    m.add_class::<costs::ObstacleHinge>()?;
+    m.add_class::<costs::CirclePenalty>()?;
+    m.add_class::<costs::CostSum>()?;
+    m.add_class::<costs::TerminalSum>()?;
+    m.add_class::<problem::Problem>()?;
+    m.add_class::<solver::Solver>()?;
+    m.add_class::<solver::Solution>()?;
+    m.add_function(wrap_pyfunction!(solver::default_settings, m)?)?;
+    m.add_function(wrap_pyfunction!(supported_dimensions, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

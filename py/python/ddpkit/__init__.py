@@ -1,0 +1,81 @@
+"""ddpkit: fast, safe trajectory optimisation (iLQR, DDP, box-DDP) with numpy in and out.
+
+Example (benchmark P1, Crocoddyl's unicycle)::
+
+    import numpy as np
+    import ddpkit
+
+    problem = ddpkit.Problem(
+        x0=np.array([-1.0, -1.0, 1.0]),
+        dynamics=ddpkit.Unicycle(dt=0.1),
+        running_cost=ddpkit.QuadraticCost(Q=100.0 * np.eye(3), R=np.eye(2)),
+        terminal_cost=ddpkit.QuadraticTerminal(Qf=100.0 * np.eye(3)),
+        horizon=100,
+    )
+    solution = ddpkit.Solver(problem, method="ddp").solve()
+    print(solution.status, solution.cost)  # converged 250.0393199732...
+
+Every error is a :class:`DdpError` (``ShapeError``, ``NotFiniteError`` and ``InvalidInputError``
+are also ``ValueError``\\ s) whose ``field`` attribute names the offending argument. Solves
+release the GIL.
+"""
+
+from ddpkit._ddpkit import (
+    ArmBase,
+    Car,
+    CirclePenalty,
+    ControlSquared,
+    Cost,
+    CostSum,
+    DdpError,
+    DifferentialDrive,
+    DoubleIntegrator2D,
+    Dynamics,
+    InvalidInputError,
+    LinearDynamics,
+    NotFiniteError,
+    ObstacleHinge,
+    Problem,
+    QuadraticCost,
+    QuadraticTerminal,
+    Quadrotor,
+    ShapeError,
+    SmoothDistance,
+    Solution,
+    Solver,
+    TerminalSum,
+    Unicycle,
+    __version__,
+    default_settings,
+    supported_dimensions,
+)
+
+__all__ = [
+    "ArmBase",
+    "Car",
+    "CirclePenalty",
+    "ControlSquared",
+    "Cost",
+    "CostSum",
+    "DdpError",
+    "DifferentialDrive",
+    "DoubleIntegrator2D",
+    "Dynamics",
+    "InvalidInputError",
+    "LinearDynamics",
+    "NotFiniteError",
+    "ObstacleHinge",
+    "Problem",
+    "QuadraticCost",
+    "QuadraticTerminal",
+    "Quadrotor",
+    "ShapeError",
+    "SmoothDistance",
+    "Solution",
+    "Solver",
+    "TerminalSum",
+    "Unicycle",
+    "__version__",
+    "default_settings",
+    "supported_dimensions",
+]

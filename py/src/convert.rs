@@ -1,0 +1,186 @@
+//! numpy <-> nalgebra conversions that check shapes and finiteness and name the field.
+//!
+//! Input goes through `numpy.asarray(obj, dtype=float64)`, so lists, tuples, scalars and arrays of
+//! any real dtype are accepted; anything numpy cannot turn into float64 is an
+//! `InvalidInputError`, a wrong shape a `ShapeError`, and NaN/inf a `NotFiniteError`.
+
+use ddp_core::error::check_finite;
+use ddp_core::{Matrix, Vector};
+use numpy::ndarray::{Array1, Array2, Array3};
+use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::PyDict;
+
+use crate::errors::{invalid, shape, CoreError, CoreResult};
+
+/// A dense float64 array copied out of Python: shape and data in C order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Arr {
+    /// The numpy shape.
+    pub shape: Vec<usize>,
+    /// The entries in C (row-major) order.
+    pub data: Vec<f64>,
+}
+
+/// `"(a, b)"` as numpy prints a shape.
+pub fn shape_str(shape: &[usize]) -> String {
+    match shape {
+        [n] => format!("({n},)"),
+        _ => format!(
+            "({})",
+            shape.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", ")
+        ),
+    }
+}
+
+impl Arr {
+    /// Rejects NaN/inf, naming `field` and the flat index.
+    pub fn finite(self, field: &str) -> CoreResult<Self> {
+        check_finite(field, self.data.iter())?;
+        Ok(self)
+    }
+
+    /// Requires exactly `expected` as the shape.
+    pub fn expect_shape(&self, field: &str, expected: &[usize]) -> CoreResult<()> {
+        if self.shape != expected {
+            return Err(shape(field, shape_str(&self.shape), shape_str(expected)));
+        }
+        Ok(())
+    }
+
+    /// A vector of length `N` (shape `(N,)`).
+    pub fn vector<const N: usize>(&self, field: &str) -> CoreResult<Vector<N>> {
+        self.expect_shape(field, &[N])?;
+        Ok(Vector::<N>::from_row_slice(&self.data))
+    }
+
+    /// An `R x C` matrix (shape `(R, C)`).
+    pub fn matrix<const R: usize, const C: usize>(&self, field: &str) -> CoreResult<Matrix<R, C>> {
+        self.expect_shape(field, &[R, C])?;
+        Ok(Matrix::<R, C>::from_row_slice(&self.data))
+    }
+
+    /// The number of rows of a 2-D array.
+    pub fn rows(&self) -> usize {
+        self.shape.first().copied().unwrap_or(0)
+    }
+}
+
+static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+
+/// Copies `obj` into an [`Arr`] through `numpy.asarray(obj, dtype=float64)`.
+pub fn to_arr(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Arr> {
+    let py = obj.py();
+    let asarray = ASARRAY.get_or_try_init(py, || -> PyResult<Py<PyAny>> {
+        Ok(py.import("numpy")?.getattr("asarray")?.unbind())
+    })?;
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("dtype", "float64")?;
+    let converted = match asarray.bind(py).call((obj,), Some(&kwargs)) {
+        Ok(a) => a,
+        Err(e) => {
+            return Err(invalid(
+                field,
+                format!("cannot be converted to a float64 array: {}", e.value(py)),
+            )
+            .into())
+        }
+    };
+    let array = converted.cast::<PyArrayDyn<f64>>()?;
+    let view = array.readonly();
+    let view = view.as_array();
+    Ok(Arr {
+        shape: view.shape().to_vec(),
+        data: view.iter().copied().collect(),
+    })
+}
+
+/// A finite float array.
+pub fn finite_arr(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Arr> {
+    Ok(to_arr(obj, field)?.finite(field)?)
+}
+
+/// A finite scalar (a Python number or a 0-d / 1-element array).
+pub fn finite_scalar(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<f64> {
+    let a = to_arr(obj, field)?;
+    if a.data.len() != 1 || a.shape.len() > 1 {
+        return Err(shape(field, shape_str(&a.shape), "a scalar").into());
+    }
+    Ok(a.finite(field)?.data[0])
+}
+
+/// Copies a slice of fixed-size vectors into an `(len, N)` numpy array.
+pub fn vectors_to_numpy<'py, const N: usize>(py: Python<'py>, v: &[Vector<N>]) -> PyResult<Bound<'py, PyAny>> {
+    let data: Vec<f64> = v.iter().flat_map(|x| x.iter().copied()).collect();
+    rows_to_numpy(py, v.len(), N, data)
+}
+
+/// An `(rows, cols)` array from C-ordered data.
+pub fn rows_to_numpy(py: Python<'_>, rows: usize, cols: usize, data: Vec<f64>) -> PyResult<Bound<'_, PyAny>> {
+    let a = Array2::from_shape_vec((rows, cols), data).map_err(|e| internal(e.to_string()))?;
+    Ok(a.into_pyarray(py).into_any())
+}
+
+/// An `(n, rows, cols)` array from C-ordered data.
+pub fn stack_to_numpy(
+    py: Python<'_>,
+    n: usize,
+    rows: usize,
+    cols: usize,
+    data: Vec<f64>,
+) -> PyResult<Bound<'_, PyAny>> {
+    let a = Array3::from_shape_vec((n, rows, cols), data).map_err(|e| internal(e.to_string()))?;
+    Ok(a.into_pyarray(py).into_any())
+}
+
+/// A 1-D array.
+pub fn vec_to_numpy(py: Python<'_>, data: Vec<f64>) -> Bound<'_, PyAny> {
+    Array1::from_vec(data).into_pyarray(py).into_any()
+}
+
+/// A fixed-size vector as a 1-D array.
+pub fn vector_to_numpy<'py, const N: usize>(py: Python<'py>, v: &Vector<N>) -> Bound<'py, PyAny> {
+    vec_to_numpy(py, v.iter().copied().collect())
+}
+
+/// A fixed-size matrix as a 2-D array.
+pub fn matrix_to_numpy<'py, const R: usize, const C: usize>(
+    py: Python<'py>,
+    m: &Matrix<R, C>,
+) -> PyResult<Bound<'py, PyAny>> {
+    rows_to_numpy(py, R, C, row_major(m))
+}
+
+/// The entries of `m` in row-major order.
+pub fn row_major<const R: usize, const C: usize>(m: &Matrix<R, C>) -> Vec<f64> {
+    let mut out = Vec::with_capacity(R * C);
+    for i in 0..R {
+        for j in 0..C {
+            out.push(m[(i, j)]);
+        }
+    }
+    out
+}
+
+/// An error that only a bug can cause.
+pub fn internal(msg: String) -> CoreError {
+    invalid("internal", format!("{msg} (a ddpkit bug)"))
+}
+
+/// Checks that `count` items of `item_bytes` each could be allocated, so that an absurd horizon
+/// is an error naming `field` instead of an allocation failure (which aborts the process).
+pub fn check_allocation(field: &str, count: usize, item_bytes: usize) -> CoreResult<()> {
+    let bytes = count.checked_mul(item_bytes.max(1));
+    let mut probe: Vec<u8> = Vec::new();
+    match bytes.map(|b| probe.try_reserve_exact(b)) {
+        Some(Ok(())) => Ok(()),
+        _ => Err(invalid(
+            field,
+            format!(
+                "{count} knots need about {:.3e} bytes, which cannot be allocated",
+                count as f64 * item_bytes as f64
+            ),
+        )),
+    }
+}

@@ -1,0 +1,439 @@
+//! `Solver` (a ddp-core workspace bound to a `Problem`) and `Solution`.
+
+use std::sync::{Arc, RwLock};
+
+use ddp_core::{Method, Regularization, Report, Settings, Solver as CoreSolver, Vector};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::convert::{check_allocation, finite_arr, row_major, rows_to_numpy, stack_to_numpy, vec_to_numpy, Arr};
+use crate::dims::{internal_mismatch, AnyProblem, AnySolver, Dims, Pair};
+use crate::errors::{invalid, CoreResult};
+use crate::problem::{controls, Problem};
+
+/// Plain-data results of a solve, copied out of the workspace without the GIL.
+struct SolveOut {
+    xs: Vec<f64>,
+    us: Vec<f64>,
+    gains: Vec<f64>,
+    feedforward: Vec<f64>,
+    status: &'static str,
+    iterations: usize,
+    cost: f64,
+    initial_cost: f64,
+    gradient: f64,
+    mu: f64,
+    backward_passes: usize,
+    forward_passes: usize,
+    solve_time: f64,
+    cost_history: Vec<f64>,
+    report: Report,
+}
+
+fn new_solver<const NX: usize, const NU: usize>(p: &AnyProblem, settings: Settings) -> CoreResult<AnySolver>
+where
+    Dims: Pair<NX, NU>,
+{
+    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    // What the workspace holds per knot (states, controls, Jacobians, cost derivatives, gains,
+    // value function), with room to spare: a horizon too large to allocate is an error, not an abort.
+    use std::mem::size_of;
+    let per_knot = 4 * size_of::<Vector<NX>>()
+        + 3 * size_of::<Vector<NU>>()
+        + 2 * size_of::<ddp_core::Matrix<NX, NX>>()
+        + size_of::<ddp_core::Matrix<NX, NU>>()
+        + size_of::<ddp_core::Matrix<NU, NX>>()
+        + size_of::<ddp_core::CostDerivatives<NX, NU>>();
+    check_allocation("horizon", p.horizon() + 1, 2 * per_knot)?;
+    Ok(<Dims as Pair<NX, NU>>::wrap_solver(CoreSolver::new(p, settings)?))
+}
+
+fn solve_impl<const NX: usize, const NU: usize>(
+    s: &mut AnySolver,
+    p: &AnyProblem,
+    us0: Option<&Arr>,
+    warm_start: bool,
+) -> CoreResult<SolveOut>
+where
+    Dims: Pair<NX, NU>,
+{
+    let s = <Dims as Pair<NX, NU>>::solver_mut(s).ok_or_else(|| internal_mismatch("solver"))?;
+    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    match us0 {
+        Some(us) => s.set_controls(&controls::<NU>(us, "us0", s.horizon())?)?,
+        None if !warm_start => s.reset(),
+        None => {}
+    }
+    let report = s.solve(p)?;
+    let (status, iterations, cost, initial_cost, gradient, mu, bp, fp, time) = (
+        report.status.as_str(),
+        report.iterations,
+        report.cost,
+        report.initial_cost,
+        report.gradient,
+        report.mu,
+        report.backward_passes,
+        report.forward_passes,
+        report.solve_time.as_secs_f64(),
+    );
+    let cost_history = report
+        .log
+        .iter()
+        .filter(|r| r.accepted || r.iteration == 0)
+        .map(|r| r.cost)
+        .collect();
+    let report = report.clone();
+    Ok(SolveOut {
+        xs: s.xs().iter().flat_map(|x| x.iter().copied()).collect(),
+        us: s.us().iter().flat_map(|u| u.iter().copied()).collect(),
+        gains: s.gains().iter().flat_map(row_major).collect(),
+        feedforward: s.feedforward().iter().flat_map(|k| k.iter().copied()).collect(),
+        status,
+        iterations,
+        cost,
+        initial_cost,
+        gradient,
+        mu,
+        backward_passes: bp,
+        forward_passes: fp,
+        solve_time: time,
+        cost_history,
+        report,
+    })
+}
+
+fn shift_impl<const NX: usize, const NU: usize>(s: &mut AnySolver) -> CoreResult<()>
+where
+    Dims: Pair<NX, NU>,
+{
+    <Dims as Pair<NX, NU>>::solver_mut(s)
+        .ok_or_else(|| internal_mismatch("solver"))?
+        .shift();
+    Ok(())
+}
+
+fn reset_impl<const NX: usize, const NU: usize>(s: &mut AnySolver) -> CoreResult<()>
+where
+    Dims: Pair<NX, NU>,
+{
+    <Dims as Pair<NX, NU>>::solver_mut(s)
+        .ok_or_else(|| internal_mismatch("solver"))?
+        .reset();
+    Ok(())
+}
+
+fn controls_impl<const NX: usize, const NU: usize>(s: &AnySolver) -> CoreResult<Vec<f64>>
+where
+    Dims: Pair<NX, NU>,
+{
+    let s = <Dims as Pair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
+    Ok(s.us().iter().flat_map(|u: &Vector<NU>| u.iter().copied()).collect())
+}
+
+fn settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item(
+        "method",
+        match s.method {
+            Method::Ilqr => "ilqr",
+            Method::Ddp => "ddp",
+        },
+    )?;
+    d.set_item("max_iterations", s.max_iterations)?;
+    d.set_item("gradient_tolerance", s.gradient_tolerance)?;
+    d.set_item("cost_tolerance", s.cost_tolerance)?;
+    d.set_item("mu_init", s.mu_init)?;
+    d.set_item("mu_min", s.mu_min)?;
+    d.set_item("mu_max", s.mu_max)?;
+    d.set_item("mu_factor", s.mu_factor)?;
+    d.set_item(
+        "regularization",
+        match s.regularization {
+            Regularization::Control => "control",
+            Regularization::State => "state",
+        },
+    )?;
+    d.set_item("step_factor", s.step_factor)?;
+    d.set_item("step_min", s.step_min)?;
+    d.set_item("armijo", s.armijo)?;
+    d.set_item("box_qp_iterations", s.box_qp_iterations)?;
+    Ok(d)
+}
+
+/// The default solver settings (those of `ddp_core::Settings::default()`) as a dict.
+#[pyfunction]
+pub fn default_settings(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    settings_dict(py, &Settings::default())
+}
+
+fn count(field: &str, v: i64) -> CoreResult<usize> {
+    usize::try_from(v)
+        .ok()
+        .filter(|&n| n >= 1)
+        .ok_or_else(|| invalid(field, format!("must be at least 1, got {v}")))
+}
+
+/// iLQR / DDP / box-DDP solver for one `Problem`, with a workspace allocated once.
+///
+/// The workspace keeps the last solution: `solve(warm_start=True)` starts from it, `shift()`
+/// moves it one knot for receding horizon. A solver is used by one thread at a time (a second
+/// thread calling `solve` concurrently gets a `RuntimeError`); the GIL is released during solves,
+/// so several solvers run in parallel.
+#[pyclass(module = "ddpkit._ddpkit")]
+pub struct Solver {
+    problem: Py<Problem>,
+    shared: Arc<RwLock<AnyProblem>>,
+    inner: AnySolver,
+    settings: Settings,
+    nx: usize,
+    nu: usize,
+    horizon: usize,
+}
+
+#[pymethods]
+impl Solver {
+    #[new]
+    #[pyo3(signature = (
+        problem,
+        method = "ilqr",
+        max_iterations = 200,
+        gradient_tolerance = 1e-9,
+        cost_tolerance = 1e-14,
+        mu_init = 0.0,
+        mu_min = 1e-9,
+        mu_max = 1e10,
+        mu_factor = 1.6,
+        regularization = "control",
+        step_factor = 0.5,
+        step_min = 0.0009765625,
+        armijo = 1e-4,
+        box_qp_iterations = 100,
+    ))]
+    fn new(
+        problem: Bound<'_, Problem>,
+        method: &str,
+        max_iterations: i64,
+        gradient_tolerance: f64,
+        cost_tolerance: f64,
+        mu_init: f64,
+        mu_min: f64,
+        mu_max: f64,
+        mu_factor: f64,
+        regularization: &str,
+        step_factor: f64,
+        step_min: f64,
+        armijo: f64,
+        box_qp_iterations: i64,
+    ) -> PyResult<Self> {
+        let method = match method.to_ascii_lowercase().as_str() {
+            "ilqr" => Method::Ilqr,
+            "ddp" => Method::Ddp,
+            other => return Err(invalid("method", format!("must be 'ilqr' or 'ddp', got '{other}'")).into()),
+        };
+        let regularization = match regularization.to_ascii_lowercase().as_str() {
+            "control" => Regularization::Control,
+            "state" => Regularization::State,
+            other => {
+                return Err(invalid("regularization", format!("must be 'control' or 'state', got '{other}'")).into())
+            }
+        };
+        let settings = Settings {
+            method,
+            max_iterations: count("max_iterations", max_iterations)?,
+            gradient_tolerance,
+            cost_tolerance,
+            mu_init,
+            mu_min,
+            mu_max,
+            mu_factor,
+            regularization,
+            step_factor,
+            step_min,
+            armijo,
+            box_qp_iterations: count("box_qp_iterations", box_qp_iterations)?,
+        };
+        let p = problem.get();
+        let (nx, nu, horizon) = (p.nx, p.nu, p.horizon);
+        let shared = p.inner.clone();
+        let inner = Problem::read(&shared, |q| with_dims!(nx, nu, new_solver(q, settings)))?;
+        Ok(Self {
+            problem: problem.unbind(),
+            shared,
+            inner,
+            settings,
+            nx,
+            nu,
+            horizon,
+        })
+    }
+
+    /// Solves the problem and returns the `Solution`.
+    ///
+    /// The initial guess: `us0` if given (shape `(N, nu)`); otherwise the controls of the last
+    /// solve when `warm_start` is true, or zeros (a cold start). The GIL is released meanwhile.
+    #[pyo3(signature = (us0 = None, warm_start = false))]
+    fn solve(&mut self, py: Python<'_>, us0: Option<&Bound<'_, PyAny>>, warm_start: bool) -> PyResult<Solution> {
+        let us0 = match us0 {
+            Some(u) if !u.is_none() => Some(finite_arr(u, "us0")?),
+            _ => None,
+        };
+        let (nx, nu) = (self.nx, self.nu);
+        let shared = &self.shared;
+        let inner = &mut self.inner;
+        let out = py.detach(|| -> CoreResult<SolveOut> {
+            Problem::read(shared, |p| {
+                with_dims!(nx, nu, solve_impl(inner, p, us0.as_ref(), warm_start))
+            })
+        })?;
+        let n = self.horizon;
+        Ok(Solution {
+            xs: rows_to_numpy(py, n + 1, nx, out.xs)?.unbind(),
+            us: rows_to_numpy(py, n, nu, out.us)?.unbind(),
+            gains: stack_to_numpy(py, n, nu, nx, out.gains)?.unbind(),
+            feedforward: rows_to_numpy(py, n, nu, out.feedforward)?.unbind(),
+            status: out.status.to_string(),
+            iterations: out.iterations,
+            cost: out.cost,
+            initial_cost: out.initial_cost,
+            gradient: out.gradient,
+            mu: out.mu,
+            backward_passes: out.backward_passes,
+            forward_passes: out.forward_passes,
+            solve_time: out.solve_time,
+            cost_history: vec_to_numpy(py, out.cost_history).unbind(),
+            report: out.report,
+        })
+    }
+
+    /// Receding horizon: drops the first knot of the last solution and repeats the last control,
+    /// so `solve(warm_start=True)` from the next state starts from the shifted trajectory.
+    fn shift(&mut self) -> PyResult<()> {
+        Ok(with_dims!(self.nx, self.nu, shift_impl(&mut self.inner))?)
+    }
+
+    /// Zeros the stored initial guess and gains (the next warm start is a cold start).
+    fn reset(&mut self) -> PyResult<()> {
+        Ok(with_dims!(self.nx, self.nu, reset_impl(&mut self.inner))?)
+    }
+
+    /// The controls held for the next warm start, shape `(N, nu)`.
+    #[getter]
+    fn controls<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let us = with_dims!(self.nx, self.nu, controls_impl(&self.inner))?;
+        rows_to_numpy(py, self.horizon, self.nu, us)
+    }
+
+    /// The problem this solver solves.
+    #[getter]
+    fn problem(&self, py: Python<'_>) -> Py<Problem> {
+        self.problem.clone_ref(py)
+    }
+
+    /// The settings as a dict.
+    #[getter]
+    fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        settings_dict(py, &self.settings)
+    }
+
+    /// Number of states.
+    #[getter]
+    fn nx(&self) -> usize {
+        self.nx
+    }
+
+    /// Number of controls.
+    #[getter]
+    fn nu(&self) -> usize {
+        self.nu
+    }
+
+    /// The horizon `N`.
+    #[getter]
+    fn horizon(&self) -> usize {
+        self.horizon
+    }
+
+    fn __repr__(&self) -> String {
+        let method = match self.settings.method {
+            Method::Ilqr => "ilqr",
+            Method::Ddp => "ddp",
+        };
+        format!(
+            "Solver(method='{method}', nx={}, nu={}, horizon={})",
+            self.nx, self.nu, self.horizon
+        )
+    }
+}
+
+/// The result of `Solver.solve`: trajectory, feedback gains and statistics.
+///
+/// The feedback law around the solution is `u_k = us[k] + K[k] @ (x_k - xs[k])`.
+#[pyclass(module = "ddpkit._ddpkit", frozen)]
+pub struct Solution {
+    /// States `x_0 .. x_N`, shape `(N+1, nx)`.
+    #[pyo3(get)]
+    xs: Py<PyAny>,
+    /// Controls `u_0 .. u_{N-1}`, shape `(N, nu)`.
+    #[pyo3(get)]
+    us: Py<PyAny>,
+    /// Feedback gains `K_k`, shape `(N, nu, nx)`.
+    #[pyo3(get, name = "K")]
+    gains: Py<PyAny>,
+    /// Feed-forward terms `k_k` of the last backward pass, shape `(N, nu)`.
+    #[pyo3(get, name = "k")]
+    feedforward: Py<PyAny>,
+    /// How the solve ended: `"converged"`, `"max_iterations"`, `"regularization_limit"`,
+    /// `"line_search_failed"` or `"numerical_error"`.
+    #[pyo3(get)]
+    status: String,
+    /// Accepted steps.
+    #[pyo3(get)]
+    iterations: usize,
+    /// Final cost.
+    #[pyo3(get)]
+    cost: f64,
+    /// Cost of the initial rollout.
+    #[pyo3(get)]
+    initial_cost: f64,
+    /// Final `sum_k |Q_u,free|^2`.
+    #[pyo3(get)]
+    gradient: f64,
+    /// Final regularisation.
+    #[pyo3(get)]
+    mu: f64,
+    /// Backward passes computed (including regularisation retries).
+    #[pyo3(get)]
+    backward_passes: usize,
+    /// Forward rollouts in line searches.
+    #[pyo3(get)]
+    forward_passes: usize,
+    /// Wall time of the solve inside Rust (s).
+    #[pyo3(get)]
+    solve_time: f64,
+    /// Cost of the initial rollout and after every accepted step.
+    #[pyo3(get)]
+    cost_history: Py<PyAny>,
+    /// The solver's report, kept to print the iteration table on demand.
+    report: Report,
+}
+
+#[pymethods]
+impl Solution {
+    /// Whether the solve converged.
+    #[getter]
+    fn converged(&self) -> bool {
+        self.status == "converged"
+    }
+
+    /// The iteration table (deterministic: no timings).
+    fn table(&self) -> String {
+        self.report.table()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Solution(status='{}', iterations={}, cost={:.10e}, solve_time={:.3e})",
+            self.status, self.iterations, self.cost, self.solve_time
+        )
+    }
+}

@@ -231,6 +231,9 @@ pub struct Report {
     pub backward_passes: usize,
     /// Forward rollouts in line searches.
     pub forward_passes: usize,
+    /// Full DDP: knots (summed over backward passes) where the second-order dynamics terms made
+    /// the Q block indefinite and, after a failed plain pass, the Gauss-Newton blocks were used.
+    pub gauss_newton_knots: usize,
     /// Wall time of the solve.
     pub solve_time: Duration,
     /// One row per iteration.
@@ -248,6 +251,7 @@ impl Report {
             mu: 0.0,
             backward_passes: 0,
             forward_passes: 0,
+            gauss_newton_knots: 0,
             solve_time: Duration::ZERO,
             log: Vec::with_capacity(capacity),
         }
@@ -443,6 +447,7 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
         r.iterations = 0;
         r.backward_passes = 0;
         r.forward_passes = 0;
+        r.gauss_newton_knots = 0;
 
         if let Some(b) = problem.bounds() {
             self.us.iter_mut().for_each(|u| *u = b.clamp(u));
@@ -475,7 +480,14 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
                 // Backward pass, raising mu until Q_uu is positive definite.
                 loop {
                     self.report.backward_passes += 1;
-                    match self.backward_pass(problem, mu) {
+                    let mut result = self.backward_pass(problem, mu, false);
+                    if result.is_err() && s.method == Method::Ddp {
+                        // Full DDP: before raising mu, retry keeping the second-order terms only
+                        // at knots where they leave the Q block definite.
+                        self.report.backward_passes += 1;
+                        result = self.backward_pass(problem, mu, true);
+                    }
+                    match result {
                         Ok(()) => break,
                         Err(NotPositiveDefinite) => {
                             dmu = f64::max(s.mu_factor, dmu * s.mu_factor);
@@ -584,7 +596,7 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
     /// positive definite at some knot.
     pub fn backward(&mut self, problem: &Problem<NX, NU>, mu: f64) -> Result<bool> {
         self.check_horizon(problem)?;
-        Ok(self.backward_pass(problem, mu).is_ok())
+        Ok(self.backward_pass(problem, mu, false).is_ok())
     }
 
     /// Phase 3: rolls out the new policy with step `alpha` (into scratch buffers, leaving the
@@ -609,7 +621,12 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
     }
 
     #[inline(never)]
-    fn backward_pass(&mut self, problem: &Problem<NX, NU>, mu: f64) -> std::result::Result<(), NotPositiveDefinite> {
+    fn backward_pass(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        mu: f64,
+        gated: bool,
+    ) -> std::result::Result<(), NotPositiveDefinite> {
         let ddp = self.settings.method == Method::Ddp;
         let bounds = problem.bounds();
         self.v_x[self.n] = self.l_n.lx;
@@ -628,23 +645,47 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
             let mut q_xx = add_sym_tr_mul(&l.lxx, fx, &v_xx_fx);
             let mut q_uu = l.luu + tr_mul(fu, &v_xx_fu);
             let mut q_ux = l.lux + tr_mul(fu, &v_xx_fx);
-            if ddp {
-                let knot = &problem.knots()[k];
-                if knot.dynamics.has_second_order() {
-                    knot.dynamics
-                        .add_second_order(&self.xs[k], &self.us[k], v_x, &mut q_xx, &mut q_ux, &mut q_uu);
-                }
-            }
-            let (mut q_uu_r, q_ux_r) = match self.settings.regularization {
+            let regularize = |q_uu: &Matrix<NU, NU>, q_ux: &Matrix<NU, NX>| match self.settings.regularization {
                 Regularization::Control => {
-                    let mut m = q_uu;
+                    let mut m = *q_uu;
                     for i in 0..NU {
                         m[(i, i)] += mu;
                     }
-                    (m, q_ux)
+                    (m, *q_ux)
                 }
                 Regularization::State => (q_uu + mu * fu.tr_mul(fu), q_ux + mu * fu.tr_mul(fx)),
             };
+            if ddp {
+                let knot = &problem.knots()[k];
+                if knot.dynamics.has_second_order() {
+                    // Full DDP adds V_x' . f_xx etc. Far from a minimum that can make the Q block
+                    // indefinite, and through Q_xx the indefiniteness would flow into every V_xx
+                    // upstream. So this knot keeps the second-order terms only when the whole
+                    // block is positive (semi)definite: Q_uu > 0 and its Schur complement
+                    // Q_xx - Q_ux^T Q_uu^-1 Q_ux >= 0 (the V_xx this knot passes on). Otherwise it
+                    // uses the Gauss-Newton blocks, and V_xx stays PSD by induction.
+                    let (mut f_xx, mut f_ux, mut f_uu) = (q_xx, q_ux, q_uu);
+                    knot.dynamics
+                        .add_second_order(&self.xs[k], &self.us[k], v_x, &mut f_xx, &mut f_ux, &mut f_uu);
+                    let (r_uu, r_ux) = regularize(&f_uu, &f_ux);
+                    let definite = !gated
+                        || (0.5 * (r_uu + r_uu.transpose())).cholesky().is_some_and(|c| {
+                            let schur = f_xx - r_ux.tr_mul(&c.solve(&r_ux));
+                            let mut shifted = 0.5 * (schur + schur.transpose());
+                            let tol = 1e-9 * (1.0 + f_xx.amax());
+                            for i in 0..NX {
+                                shifted[(i, i)] += tol;
+                            }
+                            shifted.cholesky().is_some()
+                        });
+                    if !gated || definite {
+                        (q_xx, q_ux, q_uu) = (f_xx, f_ux, f_uu);
+                    } else {
+                        self.report.gauss_newton_knots += 1;
+                    }
+                }
+            }
+            let (mut q_uu_r, q_ux_r) = regularize(&q_uu, &q_ux);
             q_uu_r = 0.5 * (q_uu_r + q_uu_r.transpose());
 
             let control_reg = self.settings.regularization == Regularization::Control;

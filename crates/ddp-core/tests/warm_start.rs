@@ -4,7 +4,10 @@
 use ddp_core::{reference, Method, Problem, Settings, Solver, Status};
 
 fn check<const NX: usize, const NU: usize>(name: &str, mut problem: Problem<NX, NU>, method: Method) {
-    let settings = Settings { method, ..Settings::default() };
+    let settings = Settings {
+        method,
+        ..Settings::default()
+    };
     let mut warm = Solver::new(&problem, settings).unwrap();
     assert_eq!(warm.solve(&problem).unwrap().status, Status::Converged, "{name}");
     // Move to the predicted next state, as an MPC step without noise would.
@@ -15,10 +18,25 @@ fn check<const NX: usize, const NU: usize>(name: &str, mut problem: Problem<NX, 
 
     let mut cold = Solver::new(&problem, settings).unwrap();
     let cold_report = cold.solve(&problem).unwrap().clone();
-    assert_eq!(warm_report.status, Status::Converged, "{name} warm:\n{}", warm_report.table());
-    assert_eq!(cold_report.status, Status::Converged, "{name} cold:\n{}", cold_report.table());
+    assert_eq!(
+        warm_report.status,
+        Status::Converged,
+        "{name} warm:\n{}",
+        warm_report.table()
+    );
+    assert_eq!(
+        cold_report.status,
+        Status::Converged,
+        "{name} cold:\n{}",
+        cold_report.table()
+    );
     let rel = (warm_report.cost - cold_report.cost).abs() / cold_report.cost.abs().max(1e-12);
-    assert!(rel < 1e-7, "{name}: warm cost {} vs cold {}", warm_report.cost, cold_report.cost);
+    assert!(
+        rel < 1e-7,
+        "{name}: warm cost {} vs cold {}",
+        warm_report.cost,
+        cold_report.cost
+    );
     for (k, (a, b)) in warm.us().iter().zip(cold.us()).enumerate() {
         assert!((a - b).amax() < 1e-3, "{name}: u[{k}] warm {a:?} cold {b:?}");
     }

@@ -1,0 +1,209 @@
+//! Inequality constraints `g(x, u) <= 0` and their Jacobians.
+//!
+//! A [`Constraint`] has `dim()` scalar rows. It is either
+//! - **state-only** ([`Constraint::depends_on_control`] is `false`): imposed on the states
+//!   `x_1 .. x_N` (obstacles, state boxes). The solver moves it to the knot whose control can change
+//!   it, as Xie et al. (2017) do: at knot `k` it imposes `g(x_{k+r}) <= 0` with
+//!   `x_{k+r} = f(...f(x_k, u_k)...)`, where `r` is the relative degree (1 when `u_k` moves
+//!   `x_{k+1}`; 2 for the car, whose position sees the controls one step later); or
+//! - **mixed** (`true`): imposed on `(x_k, u_k)` at the knots `k = 0 .. N-1` (control boxes,
+//!   actuator envelopes).
+//!
+//! The time argument `t` is the index of the state (state-only rows) or knot (mixed rows) within
+//! the current horizon, so time-varying constraints (a tracked moving obstacle) know which
+//! prediction to use. Models are immutable and `Send + Sync`; every method writes into caller
+//! buffers and allocates nothing.
+
+use ddp_core::{Matrix, Vector};
+
+/// A vector constraint `g(x, u) <= 0` with `dim()` rows. See the [module docs](self).
+///
+/// ```
+/// use safe_cddp::Constraint;
+/// use ddp_core::Vector;
+/// /// Speed limit `x[3] <= v_max` on a 4-state model.
+/// struct SpeedLimit { v_max: f64 }
+/// impl Constraint<4, 2> for SpeedLimit {
+///     fn dim(&self) -> usize { 1 }
+///     fn depends_on_control(&self) -> bool { false }
+///     fn evaluate(&self, _t: usize, x: &Vector<4>, _u: &Vector<2>, g: &mut [f64]) {
+///         g[0] = x[3] - self.v_max;
+///     }
+///     fn jacobians(&self, t: usize, x: &Vector<4>, u: &Vector<2>, g: &mut [f64],
+///                  g_x: &mut [Vector<4>], g_u: &mut [Vector<2>]) {
+///         self.evaluate(t, x, u, g);
+///         g_x[0] = Vector::<4>::new(0.0, 0.0, 0.0, 1.0);
+///         g_u[0] = Vector::zeros();
+///     }
+/// }
+/// let c = SpeedLimit { v_max: 1.0 };
+/// let mut g = [0.0];
+/// c.evaluate(0, &Vector::<4>::new(0.0, 0.0, 0.0, 1.5), &Vector::zeros(), &mut g);
+/// assert_eq!(g[0], 0.5);
+/// ```
+pub trait Constraint<const NX: usize, const NU: usize>: Send + Sync {
+    /// Number of scalar rows.
+    fn dim(&self) -> usize;
+
+    /// `false` for a state-only constraint (imposed on `x_1 .. x_N` through the dynamics), `true`
+    /// for a mixed one (imposed on `(x_k, u_k)`, `k < N`).
+    fn depends_on_control(&self) -> bool;
+
+    /// Writes `g(x, u)` at time `t` into `g` (`dim()` entries).
+    fn evaluate(&self, t: usize, x: &Vector<NX>, u: &Vector<NU>, g: &mut [f64]);
+
+    /// Writes `g`, the gradients `g_x` (one `Vector<NX>` per row) and `g_u` (one `Vector<NU>` per
+    /// row) at time `t`. Every entry is written.
+    fn jacobians(
+        &self,
+        t: usize,
+        x: &Vector<NX>,
+        u: &Vector<NU>,
+        g: &mut [f64],
+        g_x: &mut [Vector<NX>],
+        g_u: &mut [Vector<NU>],
+    );
+
+    /// Adds `sum_i w_i * d^2 g_i / dx^2` to `h_xx` (the constraint curvature of the Lagrangian).
+    /// Optional: the default adds nothing, and the solver then uses a Gauss-Newton model of the
+    /// constraints.
+    fn add_hessian(&self, _t: usize, _x: &Vector<NX>, _u: &Vector<NU>, _w: &[f64], _h_xx: &mut Matrix<NX, NX>) {}
+
+    /// Variance of each row caused by the constraint's own uncertain parameters at time `t`, e.g. a
+    /// tracked obstacle's predicted position: it is added to `g_x^T Sigma_x g_x` under the square
+    /// root of the tightening, eq. (20). The default is zero (a known constraint).
+    fn parameter_variance(&self, _t: usize, _x: &Vector<NX>, _u: &Vector<NU>, var: &mut [f64]) {
+        var.fill(0.0);
+    }
+
+    /// The relative degree of a state-only constraint, when the model's structure is known (see the
+    /// [module docs](self)). `None` (the default) lets the solver find it from the Jacobians of
+    /// the dynamics.
+    fn relative_degree(&self) -> Option<usize> {
+        None
+    }
+}
+
+impl<const NX: usize, const NU: usize, C: Constraint<NX, NU> + ?Sized> Constraint<NX, NU> for std::sync::Arc<C> {
+    fn dim(&self) -> usize {
+        (**self).dim()
+    }
+    fn depends_on_control(&self) -> bool {
+        (**self).depends_on_control()
+    }
+    fn evaluate(&self, t: usize, x: &Vector<NX>, u: &Vector<NU>, g: &mut [f64]) {
+        (**self).evaluate(t, x, u, g)
+    }
+    fn jacobians(
+        &self,
+        t: usize,
+        x: &Vector<NX>,
+        u: &Vector<NU>,
+        g: &mut [f64],
+        g_x: &mut [Vector<NX>],
+        g_u: &mut [Vector<NU>],
+    ) {
+        (**self).jacobians(t, x, u, g, g_x, g_u)
+    }
+    fn add_hessian(&self, t: usize, x: &Vector<NX>, u: &Vector<NU>, w: &[f64], h_xx: &mut Matrix<NX, NX>) {
+        (**self).add_hessian(t, x, u, w, h_xx)
+    }
+    fn parameter_variance(&self, t: usize, x: &Vector<NX>, u: &Vector<NU>, var: &mut [f64]) {
+        (**self).parameter_variance(t, x, u, var)
+    }
+    fn relative_degree(&self) -> Option<usize> {
+        (**self).relative_degree()
+    }
+}
+
+/// Largest differences between a constraint's analytic derivatives and central differences of
+/// its `evaluate`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConstraintDerivativeErrors {
+    /// `max |g - g(evaluate)|`: `jacobians` and `evaluate` must agree on the value.
+    pub value: f64,
+    /// `max |g_x - g_x^fd|`
+    pub g_x: f64,
+    /// `max |g_u - g_u^fd|`
+    pub g_u: f64,
+    /// `max |sum_i w_i g_i,xx - fd|` for the weights `w = 1` (0 when `add_hessian` adds nothing
+    /// and the constraint is linear; large when `add_hessian` is left out for a curved one, which
+    /// is allowed).
+    pub hessian: f64,
+}
+
+impl ConstraintDerivativeErrors {
+    /// The largest of the first-order errors (the Hessian is optional and reported apart).
+    pub fn max_first_order(&self) -> f64 {
+        self.value.max(self.g_x).max(self.g_u)
+    }
+}
+
+/// Compares the analytic derivatives of `c` at `(t, x, u)` with central differences of its
+/// `evaluate` (step `eps^(1/3) (1 + |z|)`). Allocates a few small vectors: a test helper.
+pub fn check_constraint_derivatives<const NX: usize, const NU: usize, C: Constraint<NX, NU> + ?Sized>(
+    c: &C,
+    t: usize,
+    x: &Vector<NX>,
+    u: &Vector<NU>,
+) -> ConstraintDerivativeErrors {
+    let m = c.dim();
+    let mut g = vec![0.0; m];
+    let mut g_eval = vec![0.0; m];
+    let mut g_x = vec![Vector::<NX>::zeros(); m];
+    let mut g_u = vec![Vector::<NU>::zeros(); m];
+    c.jacobians(t, x, u, &mut g, &mut g_x, &mut g_u);
+    c.evaluate(t, x, u, &mut g_eval);
+    let value = g.iter().zip(&g_eval).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let h = f64::EPSILON.cbrt();
+    let (mut gp, mut gm) = (vec![0.0; m], vec![0.0; m]);
+    let mut err_x = 0.0f64;
+    for j in 0..NX {
+        let hj = h * (1.0 + x[j].abs());
+        let (mut xp, mut xm) = (*x, *x);
+        xp[j] += hj;
+        xm[j] -= hj;
+        c.evaluate(t, &xp, u, &mut gp);
+        c.evaluate(t, &xm, u, &mut gm);
+        for i in 0..m {
+            err_x = err_x.max(((gp[i] - gm[i]) / (2.0 * hj) - g_x[i][j]).abs());
+        }
+    }
+    let mut err_u = 0.0f64;
+    for j in 0..NU {
+        let hj = h * (1.0 + u[j].abs());
+        let (mut up, mut um) = (*u, *u);
+        up[j] += hj;
+        um[j] -= hj;
+        c.evaluate(t, x, &up, &mut gp);
+        c.evaluate(t, x, &um, &mut gm);
+        for i in 0..m {
+            err_u = err_u.max(((gp[i] - gm[i]) / (2.0 * hj) - g_u[i][j]).abs());
+        }
+    }
+    // Hessian of sum_i g_i by differences of the analytic gradient.
+    let ones = vec![1.0; m];
+    let mut h_xx = Matrix::<NX, NX>::zeros();
+    c.add_hessian(t, x, u, &ones, &mut h_xx);
+    let (mut gxp, mut gxm) = (vec![Vector::<NX>::zeros(); m], vec![Vector::<NX>::zeros(); m]);
+    let mut scratch_u = vec![Vector::<NU>::zeros(); m];
+    let mut err_h = 0.0f64;
+    for j in 0..NX {
+        let hj = h * (1.0 + x[j].abs());
+        let (mut xp, mut xm) = (*x, *x);
+        xp[j] += hj;
+        xm[j] -= hj;
+        c.jacobians(t, &xp, u, &mut gp, &mut gxp, &mut scratch_u);
+        c.jacobians(t, &xm, u, &mut gm, &mut gxm, &mut scratch_u);
+        for r in 0..NX {
+            let fd: f64 = (0..m).map(|i| (gxp[i][r] - gxm[i][r]) / (2.0 * hj)).sum();
+            err_h = err_h.max((fd - h_xx[(r, j)]).abs());
+        }
+    }
+    ConstraintDerivativeErrors {
+        value,
+        g_x: err_x,
+        g_u: err_u,
+        hessian: err_h,
+    }
+}

@@ -1,0 +1,395 @@
+//! Solver settings, statuses and the report of a solve.
+
+use std::time::Duration;
+
+use ddp_core::{Error, Method, Result};
+
+use crate::qp::{QpMethod, QpStats};
+
+/// Settings of [`crate::SafeCddpSolver`]; validated when the solver is built.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// iLQR (Gauss-Newton dynamics) or full DDP (second-order dynamics terms in eq. (5)).
+    pub method: Method,
+    /// Maximum number of iterations of [`crate::SafeCddpSolver::solve`].
+    pub max_iterations: usize,
+    /// Converged when the projected gradient `sum_k |Q_u + C_W^T lambda|^2` falls below this and the
+    /// trajectory is feasible.
+    pub gradient_tolerance: f64,
+    /// Converged when an accepted step changes the merit by less than this, relative to `1 + |J|`,
+    /// and the trajectory is feasible.
+    pub cost_tolerance: f64,
+    /// A trajectory is feasible when no (tightened) row exceeds this.
+    pub constraint_tolerance: f64,
+    /// `epsilon` of the active set: a row with `g~ > -epsilon` enters the backward pass (Xie et al.).
+    pub active_threshold: f64,
+    /// Initial regularisation `mu` of `Q_uu + mu I`.
+    pub mu_init: f64,
+    /// Smallest non-zero `mu`.
+    pub mu_min: f64,
+    /// Largest `mu` before giving up.
+    pub mu_max: f64,
+    /// Tassa's factor `Delta_0` (> 1).
+    pub mu_factor: f64,
+    /// Line-search step reduction in (0, 1).
+    pub step_factor: f64,
+    /// Smallest step tried.
+    pub step_min: f64,
+    /// Armijo fraction of the expected decrease that a step must achieve.
+    pub armijo: f64,
+    /// `rho` of the merit `J + rho sum max(0, g~)` used by the line search.
+    pub merit_penalty: f64,
+    /// Initial trust-region radius `Delta` on `|du_j|` (infinite: none).
+    pub trust_region: f64,
+    /// Factor applied to the trust region after an infeasible QP, in (0, 1).
+    pub trust_shrink: f64,
+    /// Forward passes retried (smaller step and trust region) after an infeasible QP, before the
+    /// regularisation is raised.
+    pub max_qp_retries: usize,
+    /// After the retries, solve infeasible QPs in elastic form (the constraint rows relaxed by a
+    /// slack that costs `merit_penalty`), so the pass goes on and the merit decides; `false`
+    /// raises the regularisation instead (the paper's scheme). Either way a final trajectory that
+    /// violates a row is reported as [`Status::Infeasible`].
+    pub elastic: bool,
+    /// How the per-step QPs are solved.
+    pub qp_method: QpMethod,
+    /// Adds the constraint curvature `lambda g_xx` (previous multipliers) to the Hessians, a Newton
+    /// model of the Lagrangian. Off by default: for obstacles the curvature is negative definite,
+    /// `Q_uu` then often needs heavy regularisation, and on the benchmark problems the
+    /// Gauss-Newton model converges better.
+    pub constraint_hessian: bool,
+    /// Largest relative degree searched for a state-only constraint.
+    pub max_relative_degree: usize,
+    /// Starts every solve with an augmented-Lagrangian warm-up: the constraint rows enter the
+    /// cost as `(max(0, lambda + rho g)^2 - lambda^2) / (2 rho)`, so the value function sees
+    /// obstacles ahead, and the multipliers are updated between inexact inner solves; Xie's
+    /// KKT/QP iterations take over once the violation is below `al_switch_violation`. Without
+    /// it, a far-off initial guess can drive the per-step QPs infeasible (a state constraint can
+    /// be moved by one control only a little).
+    pub al_warm_start: bool,
+    /// Initial `rho` of the warm-up.
+    pub al_rho_init: f64,
+    /// Factor on `rho` when the violation did not fall to a quarter.
+    pub al_rho_factor: f64,
+    /// Largest `rho`.
+    pub al_rho_max: f64,
+    /// Largest violation at which the warm-up hands over to the KKT/QP iterations.
+    pub al_switch_violation: f64,
+    /// Relative merit change below which an inner warm-up solve counts as done (multiplier update).
+    pub al_inner_tolerance: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            method: Method::Ilqr,
+            max_iterations: 200,
+            gradient_tolerance: 1e-12,
+            cost_tolerance: 1e-12,
+            constraint_tolerance: 1e-8,
+            active_threshold: 1e-6,
+            mu_init: 0.0,
+            mu_min: 1e-9,
+            mu_max: 1e10,
+            mu_factor: 1.6,
+            step_factor: 0.5,
+            step_min: 1.0 / 1024.0,
+            armijo: 1e-4,
+            merit_penalty: 1e3,
+            trust_region: f64::INFINITY,
+            trust_shrink: 0.5,
+            max_qp_retries: 2,
+            elastic: true,
+            qp_method: QpMethod::Fast,
+            constraint_hessian: false,
+            max_relative_degree: 4,
+            al_warm_start: true,
+            al_rho_init: 10.0,
+            al_rho_factor: 10.0,
+            al_rho_max: 1e8,
+            al_switch_violation: 1e-8,
+            al_inner_tolerance: 1e-7,
+        }
+    }
+}
+
+impl Settings {
+    /// Rejects settings that cannot work, naming the field.
+    pub fn validate(&self) -> Result<()> {
+        let check = |name: &str, ok: bool, v: f64, what: &str| {
+            if ok {
+                Ok(())
+            } else {
+                Err(Error::invalid(
+                    format!("settings.{name}"),
+                    format!("must be {what}, got {v}"),
+                ))
+            }
+        };
+        let finite_nonneg = |v: f64| v.is_finite() && v >= 0.0;
+        let finite_pos = |v: f64| v.is_finite() && v > 0.0;
+        if self.max_iterations == 0 {
+            return Err(Error::invalid("settings.max_iterations", "must be at least 1"));
+        }
+        if self.max_relative_degree == 0 {
+            return Err(Error::invalid("settings.max_relative_degree", "must be at least 1"));
+        }
+        check(
+            "gradient_tolerance",
+            finite_nonneg(self.gradient_tolerance),
+            self.gradient_tolerance,
+            "finite and >= 0",
+        )?;
+        check(
+            "cost_tolerance",
+            finite_nonneg(self.cost_tolerance),
+            self.cost_tolerance,
+            "finite and >= 0",
+        )?;
+        check(
+            "constraint_tolerance",
+            finite_nonneg(self.constraint_tolerance),
+            self.constraint_tolerance,
+            "finite and >= 0",
+        )?;
+        check(
+            "active_threshold",
+            finite_nonneg(self.active_threshold),
+            self.active_threshold,
+            "finite and >= 0",
+        )?;
+        check("mu_init", finite_nonneg(self.mu_init), self.mu_init, "finite and >= 0")?;
+        check("mu_min", finite_pos(self.mu_min), self.mu_min, "finite and > 0")?;
+        check(
+            "mu_max",
+            finite_pos(self.mu_max) && self.mu_max >= self.mu_min,
+            self.mu_max,
+            "finite and >= mu_min",
+        )?;
+        check(
+            "mu_factor",
+            self.mu_factor.is_finite() && self.mu_factor > 1.0,
+            self.mu_factor,
+            "> 1",
+        )?;
+        check(
+            "step_factor",
+            self.step_factor > 0.0 && self.step_factor < 1.0,
+            self.step_factor,
+            "in (0, 1)",
+        )?;
+        check(
+            "step_min",
+            self.step_min > 0.0 && self.step_min <= 1.0,
+            self.step_min,
+            "in (0, 1]",
+        )?;
+        check(
+            "armijo",
+            self.armijo >= 0.0 && self.armijo < 1.0,
+            self.armijo,
+            "in [0, 1)",
+        )?;
+        check(
+            "merit_penalty",
+            finite_nonneg(self.merit_penalty),
+            self.merit_penalty,
+            "finite and >= 0",
+        )?;
+        check(
+            "trust_region",
+            self.trust_region > 0.0,
+            self.trust_region,
+            "> 0 (infinite for none)",
+        )?;
+        check(
+            "al_rho_init",
+            finite_pos(self.al_rho_init),
+            self.al_rho_init,
+            "finite and > 0",
+        )?;
+        check(
+            "al_rho_factor",
+            self.al_rho_factor.is_finite() && self.al_rho_factor >= 1.0,
+            self.al_rho_factor,
+            ">= 1",
+        )?;
+        check(
+            "al_rho_max",
+            finite_pos(self.al_rho_max) && self.al_rho_max >= self.al_rho_init,
+            self.al_rho_max,
+            ">= al_rho_init",
+        )?;
+        check(
+            "al_switch_violation",
+            finite_nonneg(self.al_switch_violation),
+            self.al_switch_violation,
+            "finite and >= 0",
+        )?;
+        check(
+            "al_inner_tolerance",
+            finite_nonneg(self.al_inner_tolerance),
+            self.al_inner_tolerance,
+            "finite and >= 0",
+        )?;
+        check(
+            "trust_shrink",
+            self.trust_shrink > 0.0 && self.trust_shrink < 1.0,
+            self.trust_shrink,
+            "in (0, 1)",
+        )?;
+        Ok(())
+    }
+}
+
+/// How a solve (or an iteration) ended. Bad input is an [`Error`], never a status.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Status {
+    /// A stopping test was met on a feasible trajectory.
+    Converged,
+    /// `max_iterations` reached; the trajectory is the best found.
+    MaxIterations,
+    /// `Q_uu` could not be made positive definite below `mu_max`.
+    RegularizationLimit,
+    /// No step length decreased the merit, even at `mu_max`.
+    LineSearchFailed,
+    /// The QP of knot `knot` stayed infeasible through the retries and the regularisation, or the
+    /// final trajectory violates a (tightened) constraint first at knot `knot`.
+    Infeasible {
+        /// The knot whose QP (or constraint) failed.
+        knot: usize,
+    },
+    /// Clarabel failed (neither a solution nor an infeasibility certificate) at `knot`.
+    QpFailed {
+        /// The knot whose QP failed.
+        knot: usize,
+    },
+    /// The initial rollout or its cost was not finite.
+    NumericalError,
+}
+
+impl Status {
+    /// Short lower-case name (`"converged"`, `"infeasible"`, ...).
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Status::Converged => "converged",
+            Status::MaxIterations => "max_iterations",
+            Status::RegularizationLimit => "regularization_limit",
+            Status::LineSearchFailed => "line_search_failed",
+            Status::Infeasible { .. } => "infeasible",
+            Status::QpFailed { .. } => "qp_failed",
+            Status::NumericalError => "numerical_error",
+        }
+    }
+}
+
+/// One row of the iteration log.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IterationLog {
+    /// Iteration number (0 is the initial rollout).
+    pub iteration: usize,
+    /// Cost `J` after this iteration.
+    pub cost: f64,
+    /// Largest violation of a tightened row after this iteration.
+    pub violation: f64,
+    /// Projected gradient of the backward pass.
+    pub gradient: f64,
+    /// Accepted step length (0 when rejected).
+    pub step: f64,
+    /// Regularisation of the backward pass.
+    pub mu: f64,
+    /// Rows in the backward pass's working sets, summed over the knots.
+    pub active: usize,
+    /// Whether the step was accepted.
+    pub accepted: bool,
+    /// Whether the constraints were tightened after this iteration.
+    pub tightened: bool,
+}
+
+/// Outcome and statistics of a solve. Lives in the solver; `log` is allocated once.
+#[derive(Debug, Clone)]
+pub struct Report {
+    /// How the solve ended.
+    pub status: Status,
+    /// Accepted steps.
+    pub iterations: usize,
+    /// Final cost `J`.
+    pub cost: f64,
+    /// Cost of the initial rollout.
+    pub initial_cost: f64,
+    /// Largest violation of an original (untightened) constraint row over the trajectory.
+    pub max_violation: f64,
+    /// Largest violation of a tightened row.
+    pub max_violation_tightened: f64,
+    /// Final projected gradient.
+    pub gradient: f64,
+    /// Final regularisation.
+    pub mu: f64,
+    /// Backward passes (including regularisation retries).
+    pub backward_passes: usize,
+    /// Forward passes (line-search trials and QP retries).
+    pub forward_passes: usize,
+    /// Forward passes abandoned on an infeasible QP.
+    pub infeasible_forward_passes: usize,
+    /// Constraint tightenings (eqs. 19-20).
+    pub tightenings: usize,
+    /// QP counters (all forward passes of the solve).
+    pub qp: QpStats,
+    /// Wall time of the solve.
+    pub solve_time: Duration,
+    /// One row per iteration.
+    pub log: Vec<IterationLog>,
+}
+
+impl Report {
+    pub(crate) fn new(capacity: usize) -> Self {
+        Self {
+            status: Status::MaxIterations,
+            iterations: 0,
+            cost: f64::NAN,
+            initial_cost: f64::NAN,
+            max_violation: f64::NAN,
+            max_violation_tightened: f64::NAN,
+            gradient: f64::NAN,
+            mu: 0.0,
+            backward_passes: 0,
+            forward_passes: 0,
+            infeasible_forward_passes: 0,
+            tightenings: 0,
+            qp: QpStats::default(),
+            solve_time: Duration::ZERO,
+            log: Vec::with_capacity(capacity),
+        }
+    }
+
+    /// The iteration table without timings (deterministic: for golden logs).
+    pub fn table(&self) -> String {
+        let mut s = String::from("iter        cost   violation    gradient    step          mu  active\n");
+        for r in &self.log {
+            s.push_str(&format!(
+                "{:4} {:.9e} {:.3e} {:.3e} {:7.4} {:.3e} {:6}{}{}\n",
+                r.iteration,
+                r.cost,
+                r.violation,
+                r.gradient,
+                r.step,
+                r.mu,
+                r.active,
+                if r.accepted || r.iteration == 0 {
+                    ""
+                } else {
+                    "  rejected"
+                },
+                if r.tightened { "  tightened" } else { "" },
+            ));
+        }
+        s.push_str(&format!(
+            "status: {}, iterations: {}, cost: {:.12e}, max violation: {:.3e}\n",
+            self.status.as_str(),
+            self.iterations,
+            self.cost,
+            self.max_violation
+        ));
+        s
+    }
+}

@@ -1,0 +1,124 @@
+//! The constrained solver: agreement with ddp-core without constraints, the benchmark problems
+//! P2 and P3 against the peers' optima, and statuses.
+
+use std::sync::Arc;
+
+use ddp_core::{reference, Settings as DdpSettings, Solver, Vector};
+use safe_cddp::benchmark::BenchmarkProblem;
+use safe_cddp::constraints::Circle;
+use safe_cddp::qp::QpMethod;
+use safe_cddp::{Constraint, SafeCddpSolver, Settings, Status};
+
+fn problems_dir() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/bench/problems")
+}
+
+#[test]
+fn without_constraints_equals_ddp_core() {
+    // P1 (no bounds, no constraints): the same iLQR iterations as ddp-core's solver.
+    let problem = reference::p1_unicycle();
+    let mut reference_solver = Solver::new(&problem, DdpSettings::default()).unwrap();
+    let r = reference_solver.solve(&problem).unwrap().clone();
+    let mut solver = SafeCddpSolver::new(&problem, vec![], Settings::default()).unwrap();
+    let ours = solver.solve(&problem).unwrap();
+    assert_eq!(ours.status, Status::Converged);
+    assert!(
+        (ours.cost - r.cost).abs() < 1e-8 * (1.0 + r.cost.abs()),
+        "{} vs {}",
+        ours.cost,
+        r.cost
+    );
+    for (a, b) in solver.xs().iter().zip(reference_solver.xs()) {
+        assert!((a - b).amax() < 1e-8);
+    }
+    for (a, b) in solver.us().iter().zip(reference_solver.us()) {
+        assert!((a - b).amax() < 1e-8);
+    }
+}
+
+#[test]
+fn inactive_obstacle_changes_nothing() {
+    // An obstacle far from the path: the constrained solve equals the unconstrained one.
+    let problem = reference::p1_unicycle();
+    let mut plain = SafeCddpSolver::new(&problem, vec![], Settings::default()).unwrap();
+    let cost = plain.solve(&problem).unwrap().cost;
+    let far: Arc<dyn Constraint<3, 2>> = Arc::new(Circle::squared([10.0, 10.0], 1.0, [0, 1]).unwrap());
+    let mut solver = SafeCddpSolver::new(&problem, vec![far], Settings::default()).unwrap();
+    let r = solver.solve(&problem).unwrap();
+    assert_eq!(r.status, Status::Converged);
+    assert!((r.cost - cost).abs() < 1e-8 * (1.0 + cost));
+    for (a, b) in solver.xs().iter().zip(plain.xs()) {
+        assert!((a - b).amax() < 1e-8);
+    }
+}
+
+fn solve_benchmark(file: &str, method: QpMethod) -> (f64, f64, Status) {
+    let p = BenchmarkProblem::from_file(problems_dir().join(file)).unwrap();
+    let (problem, constraints) = p.car_or_point().unwrap();
+    let settings = Settings {
+        qp_method: method,
+        ..Settings::default()
+    };
+    let mut solver = SafeCddpSolver::new(&problem, constraints, settings).unwrap();
+    let r = solver.solve(&problem).unwrap();
+    (r.cost, r.max_violation, r.status)
+}
+
+#[test]
+fn p2_car_reaches_the_peers_optimum() {
+    let (cost, violation, status) = solve_benchmark("p2_car4.json", QpMethod::Fast);
+    assert_eq!(status, Status::Converged);
+    assert!(cost <= 1.1972797 * (1.0 + 1e-6), "cost {cost}");
+    assert!(violation <= 1e-6, "violation {violation}");
+}
+
+#[test]
+fn p3_point_reaches_the_peers_optimum() {
+    for method in [QpMethod::Fast, QpMethod::Clarabel] {
+        let (cost, violation, status) = solve_benchmark("p3_point4.json", method);
+        assert_eq!(status, Status::Converged, "{method:?}");
+        assert!(cost <= 1.8958999 * (1.0 + 1e-6), "{method:?}: cost {cost}");
+        assert!(violation <= 1e-6, "{method:?}: violation {violation}");
+    }
+}
+
+#[test]
+fn a_start_inside_an_obstacle_is_reported_infeasible() {
+    // x0 inside a circle that no control can leave in one step: the state at t = 1 violates.
+    let mut problem = reference::point_reach();
+    problem.set_x0(Vector::<4>::new(1.0, 1.0, 0.0, 0.0)).unwrap();
+    let trap: Arc<dyn Constraint<4, 2>> = Arc::new(Circle::squared([1.0, 1.0], 2.0, [0, 1]).unwrap());
+    let settings = Settings {
+        max_iterations: 30,
+        ..Settings::default()
+    };
+    let mut solver = SafeCddpSolver::new(&problem, vec![trap], settings).unwrap();
+    let r = solver.solve(&problem).unwrap();
+    assert!(matches!(r.status, Status::Infeasible { .. }), "{:?}", r.status);
+    assert!(r.max_violation > 0.0);
+}
+
+#[test]
+fn bad_settings_and_shapes_are_errors() {
+    let problem = reference::point_reach();
+    let e = SafeCddpSolver::new(
+        &problem,
+        vec![],
+        Settings {
+            trust_shrink: 2.0,
+            ..Settings::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("settings.trust_shrink"), "{e}");
+    let mut solver = SafeCddpSolver::new(&problem, vec![], Settings::default()).unwrap();
+    let e = solver.set_controls(&[Vector::<2>::zeros(); 3]).unwrap_err().to_string();
+    assert!(e.contains("us"), "{e}");
+    let e = solver.set_horizon(0).unwrap_err().to_string();
+    assert!(e.contains("horizon"), "{e}");
+    let e = BenchmarkProblem::from_json(r#"{"name": "x", "model": "car", "N": 10}"#)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("dt") || e.contains("missing field"), "{e}");
+}

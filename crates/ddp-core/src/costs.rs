@@ -73,6 +73,12 @@ pub struct QuadraticCost<const NX: usize, const NU: usize> {
     r: Matrix<NU, NU>,
     x_ref: Vector<NX>,
     u_ref: Vector<NU>,
+    /// Both weights diagonal: the hot paths use `O(n)` diagonal kernels.
+    diagonal: bool,
+}
+
+fn is_diagonal<const N: usize>(m: &Matrix<N, N>) -> bool {
+    (0..N).all(|i| (0..N).all(|j| i == j || m[(i, j)] == 0.0))
 }
 
 impl<const NX: usize, const NU: usize> QuadraticCost<NX, NU> {
@@ -82,7 +88,14 @@ impl<const NX: usize, const NU: usize> QuadraticCost<NX, NU> {
         check_psd("r", &r)?;
         check_finite("x_ref", x_ref.iter())?;
         check_finite("u_ref", u_ref.iter())?;
-        Ok(Self { q, r, x_ref, u_ref })
+        let diagonal = is_diagonal(&q) && is_diagonal(&r);
+        Ok(Self {
+            q,
+            r,
+            x_ref,
+            u_ref,
+            diagonal,
+        })
     }
 
     /// Diagonal weights; negative or non-finite entries are rejected.
@@ -122,11 +135,32 @@ impl<const NX: usize, const NU: usize> Cost<NX, NU> for QuadraticCost<NX, NU> {
     fn value(&self, x: &Vector<NX>, u: &Vector<NU>) -> f64 {
         let dx = x - self.x_ref;
         let du = u - self.u_ref;
+        if self.diagonal {
+            let sx: f64 = (0..NX).map(|i| self.q[(i, i)] * dx[i] * dx[i]).sum();
+            let su: f64 = (0..NU).map(|i| self.r[(i, i)] * du[i] * du[i]).sum();
+            return 0.5 * (sx + su);
+        }
         0.5 * (dx.dot(&(self.q * dx)) + du.dot(&(self.r * du)))
     }
     fn add_derivatives(&self, x: &Vector<NX>, u: &Vector<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
         let dx = x - self.x_ref;
         let du = u - self.u_ref;
+        if self.diagonal {
+            let mut v = 0.0;
+            for i in 0..NX {
+                let qi = w * self.q[(i, i)];
+                d.lx[i] += qi * dx[i];
+                d.lxx[(i, i)] += qi;
+                v += qi * dx[i] * dx[i];
+            }
+            for i in 0..NU {
+                let ri = w * self.r[(i, i)];
+                d.lu[i] += ri * du[i];
+                d.luu[(i, i)] += ri;
+                v += ri * du[i] * du[i];
+            }
+            return 0.5 * v;
+        }
         let qdx = self.q * dx;
         let rdu = self.r * du;
         d.lx.axpy(w, &qdx, 1.0);
@@ -142,6 +176,7 @@ impl<const NX: usize, const NU: usize> Cost<NX, NU> for QuadraticCost<NX, NU> {
 pub struct QuadraticTerminal<const NX: usize> {
     qf: Matrix<NX, NX>,
     x_ref: Vector<NX>,
+    diagonal: bool,
 }
 
 impl<const NX: usize> QuadraticTerminal<NX> {
@@ -149,7 +184,8 @@ impl<const NX: usize> QuadraticTerminal<NX> {
     pub fn new(qf: Matrix<NX, NX>, x_ref: Vector<NX>) -> Result<Self> {
         check_psd("qf", &qf)?;
         check_finite("x_ref", x_ref.iter())?;
-        Ok(Self { qf, x_ref })
+        let diagonal = is_diagonal(&qf);
+        Ok(Self { qf, x_ref, diagonal })
     }
     /// Diagonal weights; negative or non-finite entries are rejected.
     pub fn diagonal(qf: &[f64; NX], x_ref: Vector<NX>) -> Result<Self> {
@@ -169,6 +205,9 @@ impl<const NX: usize> QuadraticTerminal<NX> {
 impl<const NX: usize> TerminalCost<NX> for QuadraticTerminal<NX> {
     fn value(&self, x: &Vector<NX>) -> f64 {
         let dx = x - self.x_ref;
+        if self.diagonal {
+            return 0.5 * (0..NX).map(|i| self.qf[(i, i)] * dx[i] * dx[i]).sum::<f64>();
+        }
         0.5 * dx.dot(&(self.qf * dx))
     }
     fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {

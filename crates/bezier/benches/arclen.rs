@@ -2,28 +2,19 @@
 //!
 //! `cargo bench -p bezier --bench arclen`. Each group runs ours and kurbo's on the same set of
 //! cubics at the same requested accuracy; the accuracy both actually reach is printed once
-//! against a 1e-14 reference, so the comparison is at equal (verified) accuracy.
+//! against a 1e-14 reference, so the comparison is at equal (verified) accuracy. Two sets:
+//! `cubic_arclen` (random control points: loops, near-cusps) and `smooth_arclen` (Catmull-Rom
+//! spline segments, see `common/curve_sets.rs`). `examples/arclen_sweep.rs` prints the same comparison
+//! over a range of accuracies.
+
+#[path = "common/curve_sets.rs"]
+mod curve_sets;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 
 use bezier::{CubicBez, ParamCurveArclen};
 use kurbo::{CubicBez as KCubic, ParamCurveArclen as KArclen};
-
-/// A fixed, varied set of cubics (smooth, S-shaped, loops, near-cusps), from a small LCG.
-fn cubics() -> Vec<[f64; 8]> {
-    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut next = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    };
-    let mut v: Vec<[f64; 8]> = (0..64).map(|_| core::array::from_fn(|_| next())).collect();
-    v.push([0.0, 0.0, 0.3, 0.9, 0.7, 0.9, 1.0, 0.0]); // typical smooth arc
-    v.push([0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0]); // exact cusp
-    v
-}
 
 fn ours(c: &[f64; 8]) -> CubicBez {
     CubicBez::new((c[0], c[1]), (c[2], c[3]), (c[4], c[5]), (c[6], c[7]))
@@ -33,7 +24,7 @@ fn theirs(c: &[f64; 8]) -> KCubic {
     KCubic::new((c[0], c[1]), (c[2], c[3]), (c[4], c[5]), (c[6], c[7]))
 }
 
-fn report_accuracy(set: &[[f64; 8]]) {
+fn report_accuracy(name: &str, set: &[[f64; 8]]) {
     for acc in [1e-6, 1e-9, 1e-12] {
         let (mut e_ours, mut e_kurbo) = (0.0f64, 0.0f64);
         for c in set {
@@ -41,14 +32,13 @@ fn report_accuracy(set: &[[f64; 8]]) {
             e_ours = e_ours.max((ours(c).arclen(acc) - reference).abs());
             e_kurbo = e_kurbo.max((theirs(c).arclen(acc) - reference).abs());
         }
-        eprintln!("accuracy {acc:e}: max error ours {e_ours:.2e}, kurbo {e_kurbo:.2e}");
+        eprintln!("{name} accuracy {acc:e}: max error ours {e_ours:.2e}, kurbo {e_kurbo:.2e}");
     }
 }
 
-fn bench_arclen(cr: &mut Criterion) {
-    let set = cubics();
-    report_accuracy(&set);
-    let mut g = cr.benchmark_group("cubic_arclen");
+fn bench_arclen_set(cr: &mut Criterion, group: &str, set: &[[f64; 8]]) {
+    report_accuracy(group, set);
+    let mut g = cr.benchmark_group(group);
     for acc in [1e-6, 1e-9, 1e-12] {
         g.bench_with_input(BenchmarkId::new("bezier", acc), &acc, |b, &acc| {
             b.iter(|| set.iter().map(|c| ours(black_box(c)).arclen(acc)).sum::<f64>())
@@ -60,8 +50,16 @@ fn bench_arclen(cr: &mut Criterion) {
     g.finish();
 }
 
+fn bench_arclen(cr: &mut Criterion) {
+    bench_arclen_set(cr, "cubic_arclen", &curve_sets::random_cubics());
+}
+
+fn bench_arclen_smooth(cr: &mut Criterion) {
+    bench_arclen_set(cr, "smooth_arclen", &curve_sets::smooth_cubics());
+}
+
 fn bench_inv_arclen(cr: &mut Criterion) {
-    let set = cubics();
+    let set = curve_sets::random_cubics();
     let lens: Vec<f64> = set.iter().map(|c| ours(c).arclen(1e-14)).collect();
     let mut g = cr.benchmark_group("cubic_inv_arclen");
     for acc in [1e-6, 1e-9] {
@@ -96,5 +94,5 @@ fn bench_inv_arclen(cr: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_arclen, bench_inv_arclen);
+criterion_group!(benches, bench_arclen, bench_arclen_smooth, bench_inv_arclen);
 criterion_main!(benches);

@@ -1,7 +1,8 @@
 //! Times arc length and inverse arc length of one cubic; used by `benches/vs_python_bezier.py`.
 //!
 //! `cargo run --release -p bezier --example arclen_timing [-- ACCURACY]`. Prints
-//! `arclen_ns=<ns per call> inv_arclen_ns=<ns per call> length=<value>`.
+//! `arclen_ns=<ns per call> inv_arclen_ns=<ns per call> length=<value> value=<value>`: `length` is
+//! the `1e-14` reference, `value` what the timed call returns at `ACCURACY`.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -33,5 +34,6 @@ fn main() {
     let length = c.arclen(1e-14);
     let arclen_ns = time_ns(|| black_box(c).arclen(accuracy));
     let inv_ns = time_ns(|| black_box(c).inv_arclen(0.37 * length, accuracy));
-    println!("arclen_ns={arclen_ns:.2} inv_arclen_ns={inv_ns:.2} length={length:.15}");
+    let value = c.arclen(accuracy);
+    println!("arclen_ns={arclen_ns:.2} inv_arclen_ns={inv_ns:.2} length={length:.15} value={value:.15}");
 }

@@ -14,15 +14,17 @@
 //! The hodograph `B'(t) = A t^2 + B t + C` read as a complex polynomial
 //! `z(t) = x'(t) + i y'(t) = A (t - r_1)(t - r_2)` gives the speed `|B'(t)| = |A| |t - r_1| |t - r_2|`
 //! and, through its roots, the exact location of every singularity of the integrand. The
-//! Gauss-Legendre order is then chosen from an a-priori error bound (see the `quadrature` module
-//! docs) before anything is evaluated: a typical segment at `1e-9` costs one 8- to 16-point rule,
-//! and near-cusps get a graded split at the root's real part.
+//! Gauss-Legendre order is chosen from an a-priori error bound (see the `quadrature` module
+//! docs) before anything is evaluated. A smooth segment is decided by a root-free bound on the
+//! hodograph's Chebyshev coefficients (one 6- to 16-point rule at `1e-9`, evaluated in the power
+//! basis with the symmetric nodes sharing work); otherwise the roots are computed and
+//! near-cusps get a graded split at the root's real part. Nothing is allocated.
 
 use crate::bernstein;
 use crate::error::{check_points, Result};
 use crate::point::{Point, Rect, Vec2};
 use crate::quad::QuadBez;
-use crate::quadrature::{self, complex_quadratic_roots, integrate_apriori, Complex, Singularities};
+use crate::quadrature::{self, arclen_quadratic_hodograph, complex_quadratic_roots, Complex};
 use crate::traits::{ParamCurve, ParamCurveArclen, ParamCurveCurvature, ParamCurveDeriv, ParamCurveExtrema};
 use crate::Bezier;
 
@@ -148,7 +150,12 @@ impl CubicArclen {
     /// Engine for `c`.
     #[inline]
     pub fn new(c: &CubicBez) -> CubicArclen {
-        let q = c.hodograph_power();
+        CubicArclen::from_hodograph(c.hodograph_power())
+    }
+
+    /// Engine for the hodograph `q` (power basis, see [`CubicBez::hodograph_power`]).
+    #[inline]
+    fn from_hodograph(q: [Vec2; 3]) -> CubicArclen {
         let z = |v: Vec2| Complex::new(v.x, v.y);
         let (roots, n_roots) = complex_quadratic_roots(z(q[0]), z(q[1]), z(q[2]));
         let lead = match n_roots {
@@ -176,11 +183,9 @@ impl CubicArclen {
     /// Length between `t0` and `t1` (negative when `t1 < t0`) with absolute error at most `accuracy`.
     #[inline]
     pub fn arclen_range(&self, t0: f64, t1: f64, accuracy: f64) -> f64 {
-        let sing = Singularities {
-            lead: self.lead,
-            roots: &self.roots[..self.n_roots],
-        };
-        integrate_apriori(&|t| self.speed(t), &sing, t0, t1, accuracy)
+        let (lo, hi, sign) = if t1 >= t0 { (t0, t1, 1.0) } else { (t1, t0, -1.0) };
+        let roots = || (self.lead, self.roots, self.n_roots);
+        sign * arclen_quadratic_hodograph(&self.q, roots, lo, hi, accuracy)
     }
 
     /// See [`ParamCurveArclen::inv_arclen`]; `total` is the curve's length if known (else pass
@@ -275,7 +280,14 @@ impl ParamCurveArclen for CubicBez {
 
     #[inline]
     fn arclen_range(&self, t0: f64, t1: f64, accuracy: f64) -> f64 {
-        CubicArclen::new(self).arclen_range(t0, t1, accuracy)
+        // The roots are computed only when the root-free bound cannot pick a rule.
+        let q = self.hodograph_power();
+        let (lo, hi, sign) = if t1 >= t0 { (t0, t1, 1.0) } else { (t1, t0, -1.0) };
+        let roots = || {
+            let e = CubicArclen::from_hodograph(q);
+            (e.lead, e.roots, e.n_roots)
+        };
+        sign * arclen_quadratic_hodograph(&q, roots, lo, hi, accuracy)
     }
 
     fn inv_arclen(&self, s: f64, accuracy: f64) -> f64 {

@@ -499,7 +499,11 @@ impl<const NX: usize, const NU: usize> Solver<NX, NU> {
                         }
                     }
                 }
-                if self.gradient < s.gradient_tolerance {
+                // With control bounds the gradient counts free controls only, so a step that is
+                // all clamped (e.g. from u = 0 when every control wants its bound) has a zero
+                // gradient yet moves the controls: converge only when it is expected to gain nothing.
+                let stalled = problem.bounds().is_none() || -(self.dv1 + self.dv2) <= s.gradient_tolerance;
+                if self.gradient < s.gradient_tolerance && stalled {
                     status = Status::Converged;
                     break;
                 }

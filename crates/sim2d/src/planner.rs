@@ -1,0 +1,575 @@
+//! Planners in the loop. A [`Planner`] gets the robot state, the local goal and the perception
+//! every cycle and returns a [`Plan`]; the executor applies its controls at 10 Hz.
+//!
+//! [`DdpPlanner`] is DDPEN's vanilla DDP (§II-A, §II-F): the unicycle, the cost of eqs. (3)-(7)
+//!
+//! ```text
+//! l(x, u) = w_c sum u^2 + w_g sqrt(|p - x_goal|^2 + eps^2) + w_o ReLU(d - dist(p))     (3), (5), (6), (7)
+//! l_f(x)  = w_gN sqrt(|p - x_goal|^2 + eps^2) + w_o ReLU(d - dist(p))                  (4)
+//! ```
+//!
+//! with `dist` the lidar costmap's distance field, box limits on `(v, w)`, and `epochs`
+//! optimisation epochs per cycle (one DDP iteration each: derivatives, backward pass, line
+//! search). Each cycle warm-starts from the previous solution shifted by the control steps
+//! executed since, the last control repeated (Fig. 6). Optional sub-goal terms
+//! `w_s sqrt(|p - x_s|^2 + eps^2)` (eqs. 8-9) are there for DDPEN.
+//!
+//! Defaults ([`DdpParams::default`]; the paper gives none of these numbers but the limits):
+//!
+//! | symbol | field | default | why |
+//! |---|---|---|---|
+//! | `N`, `dt` | `horizon`, `dt` | 50, 0.1 s | 5 s: reaches the costmap border (5-7 m) at 1.5 m/s |
+//! | epochs | `epochs` | 4 | paper §II-F |
+//! | `w_c` | `w_control` | 0.1 | small: the robot drives at its speed limit in free space |
+//! | `w_g`, `w_gN` | `w_goal`, `w_goal_terminal` | 1, 5 | |
+//! | `w_o`, `d` | `w_obstacle`, `margin` | 10, 0.9 m | `w_o > w_g` stops a knot at distance `d`; `d` = circumscribed radius 0.5 m + 0.4 m |
+//! | `v`, `w` bounds | `v_min`, `v_max`, `w_max` | [0, 1.5] m/s, 0.5 rad/s | paper §III; no reversing (a DDP allowed to reverse may settle into driving backwards) |
+//! | method | `full_ddp` | full DDP | second-order unicycle terms |
+//!
+//! [`AstarDdpPlanner`] is the same optimiser whose initial guess each cycle is a pure-pursuit
+//! rollout along the A* path from the robot to the local goal on the inflated costmap.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use ddp_core::costs::{ControlSquared, CostSum, SmoothDistance, StateOnly, TerminalSum};
+use ddp_core::models::Unicycle;
+use ddp_core::{ControlBounds, Dynamics, Method, Problem, Settings, Solver, Status, Vector};
+use subgoal_infer::grid::{nearest_free, AStar, AStarParams};
+use subgoal_infer::DistanceFieldHinge;
+
+use crate::error::{check_nonnegative, check_positive, Error, Result};
+use crate::perception::Perception;
+
+/// The planner's optimisation problem (defaults: the table in the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct DdpParams {
+    /// Horizon `N` (knots).
+    pub horizon: usize,
+    /// Model time step (s); the executor's control period.
+    pub dt: f64,
+    /// Optimisation epochs per cycle (paper: 4).
+    pub epochs: usize,
+    /// `w_c`, control cost (eq. 5).
+    pub w_control: f64,
+    /// `w_g`, running goal distance (eq. 6).
+    pub w_goal: f64,
+    /// `w_gN`, terminal goal distance (eq. 4).
+    pub w_goal_terminal: f64,
+    /// `w_o`, obstacle hinge (eq. 7).
+    pub w_obstacle: f64,
+    /// `d`, the distance below which the hinge acts (m).
+    pub margin: f64,
+    /// `eps` of the smooth distances (m).
+    pub eps: f64,
+    /// `w_s`, sub-goal distance (eq. 9; DDPEN only).
+    pub w_subgoal: f64,
+    /// Lower speed bound of the plan (m/s; negative allows reversing).
+    pub v_min: f64,
+    /// Upper speed bound (m/s).
+    pub v_max: f64,
+    /// Turn-rate bound `|w| <= w_max` (rad/s).
+    pub w_max: f64,
+    /// Full DDP (second-order dynamics) rather than iLQR.
+    pub full_ddp: bool,
+}
+
+impl Default for DdpParams {
+    fn default() -> Self {
+        Self {
+            horizon: 50,
+            dt: 0.1,
+            epochs: 4,
+            w_control: 0.1,
+            w_goal: 1.0,
+            w_goal_terminal: 5.0,
+            w_obstacle: 10.0,
+            margin: 0.9,
+            eps: 0.05,
+            w_subgoal: 1.0,
+            v_min: 0.0,
+            v_max: 1.5,
+            w_max: 0.5,
+            full_ddp: true,
+        }
+    }
+}
+
+impl DdpParams {
+    /// Rejects impossible values, naming the field (`ddp.<name>`).
+    pub fn validate(&self) -> Result<()> {
+        if self.horizon == 0 {
+            return Err(Error::invalid("ddp.horizon", "must be at least 1"));
+        }
+        if self.epochs == 0 {
+            return Err(Error::invalid("ddp.epochs", "must be at least 1"));
+        }
+        check_positive("ddp.dt", self.dt)?;
+        check_positive("ddp.eps", self.eps)?;
+        for (n, v) in [
+            ("w_control", self.w_control),
+            ("w_goal", self.w_goal),
+            ("w_goal_terminal", self.w_goal_terminal),
+            ("w_obstacle", self.w_obstacle),
+            ("margin", self.margin),
+            ("w_subgoal", self.w_subgoal),
+            ("w_max", self.w_max),
+        ] {
+            check_nonnegative(&format!("ddp.{n}"), v)?;
+        }
+        if !(self.v_min.is_finite() && self.v_max.is_finite() && self.v_min <= self.v_max) {
+            return Err(Error::invalid(
+                "ddp.v_min",
+                format!("must be finite and <= ddp.v_max = {}, got {}", self.v_max, self.v_min),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What a planner sees each cycle.
+pub struct PlanRequest<'a> {
+    /// Simulated time (s).
+    pub time: f64,
+    /// Measured robot state `[x, y, theta]`.
+    pub state: [f64; 3],
+    /// The local goal `x_goal`.
+    pub goal: [f64; 2],
+    /// The lidar costmap and distance field.
+    pub perception: &'a Perception,
+    /// Control steps executed since the previous plan (0 for the first plan).
+    pub steps_since_last: usize,
+}
+
+/// A planner's answer.
+#[derive(Debug, Clone, Default)]
+pub struct Plan {
+    /// Planned states `x_0 .. x_N` (`[x, y, theta]`).
+    pub states: Vec<[f64; 3]>,
+    /// Planned controls `u_0 .. u_{N-1}` (`[v, w]`).
+    pub controls: Vec<[f64; 2]>,
+    /// Compute time of each optimisation epoch of this cycle (s).
+    pub epoch_seconds: Vec<f64>,
+    /// Compute time of this cycle outside the epochs: problem set-up, initial guess (s).
+    pub setup_seconds: f64,
+    /// Cost after the last epoch.
+    pub cost: f64,
+    /// Status of the last epoch's solve.
+    pub status: Option<Status>,
+    /// Points that guided the plan (A* path, sub-goals), for logs and figures.
+    pub guide: Vec<[f64; 2]>,
+}
+
+/// A planner in the loop (see the module docs).
+pub trait Planner: Send {
+    /// Short name (`"ddp"`, `"ddp-astar"`).
+    fn name(&self) -> &str;
+    /// Plans from the request; the returned plan lives until the next call.
+    fn plan(&mut self, request: &PlanRequest<'_>) -> Result<&Plan>;
+}
+
+/// The planners this crate provides, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PlannerKind {
+    /// Vanilla DDP, warm-started from the shifted previous trajectory.
+    Ddp,
+    /// DDP with an A* initial guess every cycle.
+    DdpAstar,
+}
+
+impl PlannerKind {
+    /// All kinds.
+    pub const ALL: [PlannerKind; 2] = [PlannerKind::Ddp, PlannerKind::DdpAstar];
+
+    /// The command-line name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            PlannerKind::Ddp => "ddp",
+            PlannerKind::DdpAstar => "ddp-astar",
+        }
+    }
+
+    /// Parses a command-line name; the error lists the known names.
+    pub fn parse(name: &str) -> Result<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name).ok_or_else(|| {
+            Error::invalid(
+                "planner",
+                format!(
+                    "unknown planner {name:?}; known: {}",
+                    Self::ALL.map(|k| k.name()).join(", ")
+                ),
+            )
+        })
+    }
+
+    /// Builds the planner.
+    pub fn build(&self, params: &DdpParams) -> Result<Box<dyn Planner>> {
+        Ok(match self {
+            PlannerKind::Ddp => Box::new(DdpPlanner::new(*params)?),
+            PlannerKind::DdpAstar => Box::new(AstarDdpPlanner::new(*params)?),
+        })
+    }
+}
+
+impl std::fmt::Display for PlannerKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Vanilla DDP in the loop (see the module docs). The solver workspace is allocated once.
+pub struct DdpPlanner {
+    params: DdpParams,
+    dynamics: Arc<Unicycle>,
+    bounds: ControlBounds<2>,
+    solver: Solver<3, 2>,
+    settings: Settings,
+    subgoals: Vec<[f64; 2]>,
+    started: bool,
+    plan: Plan,
+}
+
+impl DdpPlanner {
+    /// Validates `params` and allocates the solver workspace.
+    pub fn new(params: DdpParams) -> Result<Self> {
+        params.validate()?;
+        let dynamics = Arc::new(Unicycle::new(params.dt)?);
+        let bounds = ControlBounds::new(
+            Vector::<2>::new(params.v_min, -params.w_max),
+            Vector::<2>::new(params.v_max, params.w_max),
+        )?;
+        let settings = Settings {
+            method: if params.full_ddp { Method::Ddp } else { Method::Ilqr },
+            max_iterations: 1,
+            ..Settings::default()
+        };
+        let dummy = Problem::new(
+            Vector::<3>::zeros(),
+            dynamics.clone(),
+            Arc::new(ControlSquared::new(1.0)?),
+            Arc::new(ddp_core::costs::NoTerminalCost),
+            params.horizon,
+        )?;
+        let solver = Solver::new(&dummy, settings)?;
+        Ok(Self {
+            params,
+            dynamics,
+            bounds,
+            solver,
+            settings,
+            subgoals: Vec::new(),
+            started: false,
+            plan: Plan {
+                states: Vec::with_capacity(params.horizon + 1),
+                controls: Vec::with_capacity(params.horizon),
+                epoch_seconds: Vec::with_capacity(params.epochs),
+                ..Plan::default()
+            },
+        })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &DdpParams {
+        &self.params
+    }
+
+    /// Sub-goals `x_s` for the next plans (eqs. 8-9), each weighted by `w_subgoal`; empty for
+    /// vanilla DDP.
+    pub fn set_subgoals(&mut self, subgoals: &[[f64; 2]]) -> Result<()> {
+        for (i, s) in subgoals.iter().enumerate() {
+            crate::error::check_finite2(&format!("subgoals[{i}]"), *s)?;
+        }
+        self.subgoals.clear();
+        self.subgoals.extend_from_slice(subgoals);
+        Ok(())
+    }
+
+    /// Sets the initial guess of the next plan (`N` controls), replacing the shifted warm start.
+    pub fn set_initial_guess(&mut self, controls: &[Vector<2>]) -> Result<()> {
+        self.solver.set_controls(controls)?;
+        self.started = true;
+        Ok(())
+    }
+
+    /// Warm start (Fig. 6): drop the executed knots, repeating the last control.
+    fn warm_start(&mut self, steps: usize) {
+        if !self.started {
+            self.solver.reset();
+            self.started = true;
+            return;
+        }
+        for _ in 0..steps.min(self.params.horizon) {
+            self.solver.shift();
+        }
+    }
+
+    fn build_problem(&self, request: &PlanRequest<'_>) -> Result<Problem<3, 2>> {
+        let p = &self.params;
+        let goal = SmoothDistance::<3>::goal(request.goal, [0, 1], p.eps, 1.0)?;
+        let hinge = DistanceFieldHinge::<3>::new(request.perception.field().clone(), p.margin, [0, 1], 1.0)?;
+        let mut running = CostSum::<3, 2>::new()
+            .with(p.w_control, Arc::new(ControlSquared::new(1.0)?))
+            .with(p.w_goal, Arc::new(StateOnly(goal)))
+            .with(p.w_obstacle, Arc::new(StateOnly(hinge.clone())));
+        for s in &self.subgoals {
+            running.push(
+                p.w_subgoal,
+                Arc::new(StateOnly(SmoothDistance::<3>::sub_goal(*s, [0, 1], p.eps, 1.0)?)),
+            )?;
+        }
+        let terminal = TerminalSum::<3>::new()
+            .with(p.w_goal_terminal, Arc::new(goal))
+            .with(p.w_obstacle, Arc::new(hinge));
+        let x0 = Vector::<3>::new(request.state[0], request.state[1], request.state[2]);
+        Ok(Problem::new(
+            x0,
+            self.dynamics.clone() as Arc<dyn Dynamics<3, 2>>,
+            Arc::new(running),
+            Arc::new(terminal),
+            p.horizon,
+        )?
+        .with_control_bounds(self.bounds))
+    }
+
+    /// One cycle from the current initial guess: `epochs` solves of one iteration each.
+    fn optimise(&mut self, request: &PlanRequest<'_>, setup_start: Instant) -> Result<&Plan> {
+        let problem = self.build_problem(request)?;
+        self.plan.setup_seconds += setup_start.elapsed().as_secs_f64();
+        self.plan.epoch_seconds.clear();
+        let mut settings = self.settings;
+        for _ in 0..self.params.epochs {
+            let t = Instant::now();
+            self.solver.set_settings(settings)?;
+            let report = self.solver.solve(&problem)?;
+            // Carry the regularisation across epochs, as one solve would.
+            settings.mu_init = report.mu;
+            self.plan.cost = report.cost;
+            self.plan.status = Some(report.status);
+            self.plan.epoch_seconds.push(t.elapsed().as_secs_f64());
+        }
+        drop(problem);
+        self.plan.states.clear();
+        self.plan
+            .states
+            .extend(self.solver.xs().iter().map(|x| [x[0], x[1], x[2]]));
+        self.plan.controls.clear();
+        self.plan.controls.extend(self.solver.us().iter().map(|u| [u[0], u[1]]));
+        Ok(&self.plan)
+    }
+}
+
+impl Planner for DdpPlanner {
+    fn name(&self) -> &str {
+        "ddp"
+    }
+
+    fn plan(&mut self, request: &PlanRequest<'_>) -> Result<&Plan> {
+        let t = Instant::now();
+        self.plan.setup_seconds = 0.0;
+        self.warm_start(request.steps_since_last);
+        self.plan.guide.clear();
+        self.plan.guide.extend_from_slice(&self.subgoals);
+        self.optimise(request, t)
+    }
+}
+
+/// DDP whose initial guess each cycle follows the A* path to the local goal (see the module
+/// docs). Falls back to the shifted warm start when A* finds no path.
+pub struct AstarDdpPlanner {
+    ddp: DdpPlanner,
+    astar: Option<AStar>,
+    params: AStarParams,
+    cells: Vec<(usize, usize)>,
+    path: Vec<[f64; 2]>,
+    guess: Vec<Vector<2>>,
+    /// Pure-pursuit look-ahead (m).
+    lookahead: f64,
+}
+
+impl AstarDdpPlanner {
+    /// Validates `params`; the A* workspace is allocated on the first plan (it needs the
+    /// costmap size).
+    pub fn new(params: DdpParams) -> Result<Self> {
+        Ok(Self {
+            ddp: DdpPlanner::new(params)?,
+            astar: None,
+            params: AStarParams::default(),
+            cells: Vec::new(),
+            path: Vec::new(),
+            guess: vec![Vector::<2>::zeros(); params.horizon],
+            lookahead: 1.0,
+        })
+    }
+
+    /// A* from the robot to the goal on the inflated costmap, into `self.path`; `false` if none.
+    fn search(&mut self, request: &PlanRequest<'_>) -> bool {
+        let map = request.perception.costmap();
+        let g = map.geometry();
+        let astar = self.astar.get_or_insert_with(|| AStar::new(g));
+        let start = g.world_to_cell_clamped([request.state[0], request.state[1]]);
+        let goal = g.world_to_cell_clamped(request.goal);
+        let Some(goal) = nearest_free(map, goal, self.params.blocked, 40) else {
+            return false;
+        };
+        if astar.search(map, start, goal, &self.params, &mut self.cells).is_none() {
+            return false;
+        }
+        self.path.clear();
+        self.path.extend(self.cells.iter().map(|&(x, y)| g.cell_to_world(x, y)));
+        true
+    }
+
+    /// Pure-pursuit rollout of the unicycle along `self.path` into `self.guess`.
+    fn guess_from_path(&mut self, state: [f64; 3]) {
+        let p = self.ddp.params;
+        let model = Unicycle::new(p.dt).expect("validated dt");
+        let mut x = Vector::<3>::new(state[0], state[1], state[2]);
+        let mut nearest = 0;
+        for u in self.guess.iter_mut() {
+            // Advance the nearest path index, then look ahead along the path.
+            while nearest + 1 < self.path.len()
+                && dist2(self.path[nearest + 1], [x[0], x[1]]) <= dist2(self.path[nearest], [x[0], x[1]])
+            {
+                nearest += 1;
+            }
+            let mut target = nearest;
+            while target + 1 < self.path.len() && dist2(self.path[target], [x[0], x[1]]).sqrt() < self.lookahead {
+                target += 1;
+            }
+            let q = self.path[target];
+            let (dx, dy) = (q[0] - x[0], q[1] - x[1]);
+            let remaining = dx.hypot(dy);
+            let alpha = wrap(dy.atan2(dx) - x[2]);
+            let w = (2.0 * alpha).clamp(-p.w_max, p.w_max);
+            let at_end = target + 1 == self.path.len();
+            let mut v = p.v_max * alpha.cos().max(0.0);
+            if at_end {
+                v = v.min(remaining / p.dt);
+            }
+            *u = Vector::<2>::new(v.clamp(p.v_min.max(0.0), p.v_max), w);
+            x = model.step(&x, u);
+        }
+    }
+}
+
+fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
+}
+
+fn wrap(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+}
+
+impl Planner for AstarDdpPlanner {
+    fn name(&self) -> &str {
+        "ddp-astar"
+    }
+
+    fn plan(&mut self, request: &PlanRequest<'_>) -> Result<&Plan> {
+        let t = Instant::now();
+        self.ddp.plan.setup_seconds = 0.0;
+        let found = self.search(request);
+        if found {
+            self.guess_from_path(request.state);
+            self.ddp.set_initial_guess(&self.guess)?;
+        } else {
+            self.ddp.warm_start(request.steps_since_last);
+        }
+        self.ddp.plan.guide.clear();
+        if found {
+            // A few points of the path for logs and figures.
+            let stride = (self.path.len() / 20).max(1);
+            self.ddp.plan.guide.extend(self.path.iter().step_by(stride).copied());
+        }
+        self.ddp.optimise(request, t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::perception::PerceptionParams;
+    use crate::world::Scan;
+
+    fn perception_with_wall() -> Perception {
+        let mut p = Perception::new(PerceptionParams::default()).unwrap();
+        // A wall across y = 0..1 at x = 3 (lidar returns).
+        let hits: Vec<[f64; 2]> = (0..20).map(|k| [3.0, 0.05 * k as f64 + 0.5]).collect();
+        p.update(&Scan {
+            pose: [0.0, 0.0, 0.0],
+            ranges: vec![],
+            max_range: 8.0,
+            hits,
+        });
+        p
+    }
+
+    #[test]
+    fn ddp_moves_towards_the_goal_within_limits() {
+        let perception = Perception::new(PerceptionParams::default()).unwrap();
+        let mut planner = DdpPlanner::new(DdpParams::default()).unwrap();
+        let mut last_cost = f64::INFINITY;
+        for cycle in 0..3 {
+            let req = PlanRequest {
+                time: 0.0,
+                state: [0.0, 0.0, 0.0],
+                goal: [5.0, 0.0],
+                perception: &perception,
+                // Nothing executed between cycles: each cycle continues the optimisation.
+                steps_since_last: 0,
+            };
+            let plan = planner.plan(&req).unwrap();
+            assert_eq!(plan.controls.len(), 50);
+            assert_eq!(plan.states.len(), 51);
+            assert_eq!(plan.epoch_seconds.len(), 4);
+            for u in &plan.controls {
+                assert!(u[0] <= 1.5 + 1e-12 && u[0] >= -1e-12 && u[1].abs() <= 0.5 + 1e-12);
+            }
+            assert!(plan.controls[0][0] > 1.0, "{:?}", plan.controls[0]);
+            assert!(plan.cost <= last_cost + 1e-9 || cycle == 0);
+            last_cost = plan.cost;
+        }
+    }
+
+    #[test]
+    fn planned_trajectory_keeps_away_from_a_seen_wall() {
+        let perception = perception_with_wall();
+        for kind in PlannerKind::ALL {
+            let mut planner = kind.build(&DdpParams::default()).unwrap();
+            let mut plan = Plan::default();
+            for cycle in 0..10 {
+                let req = PlanRequest {
+                    time: 0.0,
+                    state: [0.0, 0.0, 0.0],
+                    goal: [5.0, 0.0],
+                    perception: &perception,
+                    steps_since_last: usize::from(cycle > 0),
+                };
+                plan = planner.plan(&req).unwrap().clone();
+            }
+            let min_dist = plan
+                .states
+                .iter()
+                .map(|s| perception.field().sample([s[0], s[1]]).0)
+                .fold(f64::INFINITY, f64::min);
+            assert!(min_dist > 0.5, "{kind}: min distance {min_dist}");
+        }
+        // The field is not shared after planning: perception updates stay allocation-free.
+        assert_eq!(Arc::strong_count(perception.field()), 1);
+    }
+
+    #[test]
+    fn names_round_trip_and_unknown_is_an_error() {
+        for k in PlannerKind::ALL {
+            assert_eq!(PlannerKind::parse(k.name()).unwrap(), k);
+        }
+        let e = PlannerKind::parse("rrt").unwrap_err().to_string();
+        assert!(e.contains("planner") && e.contains("ddp-astar"), "{e}");
+        let e = DdpParams {
+            horizon: 0,
+            ..DdpParams::default()
+        };
+        assert!(e.validate().unwrap_err().to_string().starts_with("ddp.horizon"));
+    }
+}

@@ -11,9 +11,11 @@
 //! | [`costs`] | `Cost` and the cost terms |
 //! | [`problem`] | `Problem` |
 //! | [`solver`] | `Solver`, `Solution`, `default_settings` |
+//! | [`bezier`] | `Bezier`, `Spline`, `SigmoidProfile`, `Trajectory`, costs, `optimize_spline` (public as `ddpkit.bezier`) |
 
 #[macro_use]
 pub mod dims;
+pub mod bezier;
 pub mod convert;
 pub mod costs;
 pub mod errors;
@@ -55,6 +57,7 @@ fn _ddpkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<solver::Solution>()?;
     m.add_function(wrap_pyfunction!(solver::default_settings, m)?)?;
     m.add_function(wrap_pyfunction!(supported_dimensions, m)?)?;
+    bezier::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -18,6 +18,10 @@ Example (benchmark P1, Crocoddyl's unicycle)::
 Every error is a :class:`DdpError` (``ShapeError``, ``NotFiniteError`` and ``InvalidInputError``
 are also ``ValueError``\\ s) whose ``field`` attribute names the offending argument. Solves
 release the GIL.
+
+:mod:`ddpkit.bezier` has the Bézier toolkit of paper 002 (curves, splines through waypoints,
+motion profiles, trajectories as DDP references); :mod:`ddpkit.dqn` the DQN that shapes splines
+(needs torch, imported only there) and ``python -m ddpkit.train`` its training command.
 """
 
 from ddpkit._ddpkit import (
@@ -49,6 +53,7 @@ from ddpkit._ddpkit import (
     default_settings,
     supported_dimensions,
 )
+from ddpkit import bezier
 
 __all__ = [
     "ArmBase",
@@ -76,6 +81,7 @@ __all__ = [
     "TerminalSum",
     "Unicycle",
     "__version__",
+    "bezier",
     "default_settings",
     "supported_dimensions",
 ]

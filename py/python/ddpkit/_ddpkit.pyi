@@ -5,7 +5,7 @@ real dtype, lists, tuples, scalars) and returned as new float64 ``numpy.ndarray`
 """
 
 from collections.abc import Sequence
-from typing import Optional, Union
+from typing import Any, Optional, Union, overload
 
 from typing_extensions import Self, disjoint_base, final
 
@@ -14,9 +14,14 @@ import numpy.typing as npt
 
 _ArrayLike = npt.ArrayLike
 _F64Array = npt.NDArray[np.float64]
+# Vectorised Bezier methods: a Python number gives a number (or a (2,) point), an array (or
+# nested sequence) of shape S gives an array of shape S (or S + (2,)).
+_Params = Union[npt.NDArray[Any], Sequence[Any]]
 
 __all__ = [
     "ArmBase",
+    "BEZIER_DEFAULT_ACCURACY",
+    "Bezier",
     "Car",
     "CirclePenalty",
     "ControlSquared",
@@ -35,13 +40,21 @@ __all__ = [
     "QuadraticTerminal",
     "Quadrotor",
     "ShapeError",
+    "SigmoidProfile",
     "SmoothDistance",
     "Solution",
     "Solver",
+    "Spline",
+    "SplineOptimizeResult",
     "TerminalSum",
+    "Trajectory",
+    "TrajectorySamples",
     "Unicycle",
     "__version__",
+    "arclen_batch",
     "default_settings",
+    "optimize_spline",
+    "spline_cost",
     "supported_dimensions",
 ]
 
@@ -562,3 +575,329 @@ def default_settings() -> dict[str, Union[str, int, float]]:
 
 def supported_dimensions() -> list[tuple[int, int]]:
     """The ``(nx, nu)`` pairs compiled into this build."""
+
+# --------------------------------------------------------------------------------------------
+# Bezier curves, splines, motion profiles (paper 002; public as ``ddpkit.bezier``)
+# --------------------------------------------------------------------------------------------
+
+BEZIER_DEFAULT_ACCURACY: float
+"""The arc-length accuracy the ``bezier`` crate suggests (absolute, length units): ``1e-9``."""
+
+@final
+class Bezier:
+    """A Bézier curve of any degree on ``t in [0, 1]``, from control points of shape ``(n, 2)``,
+    ``1 <= n <= 1000`` (the Bernstein form overflows a little beyond).
+
+    Cubics (``n = 4``) use the specialised engine (closed-form hodograph roots, a-priori
+    Gauss-Legendre). Vectorised methods take ``t`` as a number (giving a number, or a ``(2,)``
+    point) or an array of any shape ``S`` (giving shape ``S``, or ``S + (2,)`` for points),
+    looping in Rust with the GIL released. NaN/inf raise ``NotFiniteError``; accuracies must be
+    > 0 (``InvalidInputError`` naming ``accuracy``).
+    """
+
+    def __new__(cls, points: _ArrayLike) -> Self: ...
+    @property
+    def points(self) -> _F64Array:
+        """The control points, shape ``(n, 2)``."""
+    @property
+    def degree(self) -> int:
+        """The degree, ``n - 1``."""
+    def eval(self, t: Union[float, _Params]) -> _F64Array:
+        """``B(t)`` (Bernstein form): ``(2,)`` for a number, ``t.shape + (2,)`` for an array."""
+    def eval_de_casteljau(self, t: Union[float, _Params]) -> _F64Array:
+        """``B(t)`` by De Casteljau's repeated linear interpolation (same shapes as :meth:`eval`)."""
+    def derivative(self, t: Union[float, _Params], order: int = 1) -> _F64Array:
+        """The ``order``-th derivative ``d^order B / dt^order`` (``order = 0`` is :meth:`eval`)."""
+    def velocity(self, t: Union[float, _Params]) -> _F64Array:
+        """``B'(t)`` (same shapes as :meth:`eval`)."""
+    def acceleration(self, t: Union[float, _Params]) -> _F64Array:
+        """``B''(t)``."""
+    def jerk(self, t: Union[float, _Params]) -> _F64Array:
+        """``B'''(t)``."""
+    @overload
+    def speed(self, t: float) -> float:
+        """Speed ``|B'(t)|``."""
+    @overload
+    def speed(self, t: _Params) -> _F64Array: ...
+    @overload
+    def curvature(self, t: float) -> float:
+        """Signed curvature ``(x' y'' - y' x'') / (x'^2 + y'^2)^(3/2)`` (the paper's ``K(t)``
+        without the absolute value; ``0`` where the speed vanishes)."""
+    @overload
+    def curvature(self, t: _Params) -> _F64Array: ...
+    def hodograph(self) -> Bezier:
+        """The derivative curve, degree one less (a constant curve gives the zero point)."""
+    def extrema(self) -> _F64Array:
+        """Parameters in ``(0, 1)``, ascending, where ``x'(t) = 0`` or ``y'(t) = 0``."""
+    def bounding_box(self) -> tuple[float, float, float, float]:
+        """The exact bounding box ``(x_min, y_min, x_max, y_max)``."""
+    def subdivide(self, t: float) -> tuple[Bezier, Bezier]:
+        """Splits at ``t`` into the curves on ``[0, t]`` and ``[t, 1]``."""
+    def subsegment(self, t0: float, t1: float) -> Bezier:
+        """The part between ``t0`` and ``t1`` reparametrised to ``[0, 1]`` (reversed if ``t1 < t0``)."""
+    def elevate(self) -> Bezier:
+        """Exact degree elevation: the same curve with one more control point (at most 1000)."""
+    def arclen(self, accuracy: float = 1e-9) -> float:
+        """Arc length by adaptive Gauss-Legendre, absolute error at most ``accuracy``."""
+    def arclen_simpson(self, accuracy: float = 1e-9) -> float:
+        """Arc length by composite Simpson's rule as in the paper (intervals doubled until two
+        estimates differ by less than ``15 * accuracy``; at most ``2**20`` intervals)."""
+    def arclen_range(self, t0: float, t1: float, accuracy: float = 1e-9) -> float:
+        """Length between ``t0`` and ``t1`` (negative when ``t1 < t0``)."""
+    @overload
+    def inv_arclen(self, s: float, accuracy: float = 1e-9) -> float:
+        """The parameter ``t(s)`` at which the length from the start is ``s`` (clamped to
+        ``[0, arclen]``), to ``accuracy`` in length; vectorised over ``s``."""
+    @overload
+    def inv_arclen(self, s: _Params, accuracy: float = 1e-9) -> _F64Array: ...
+    def resample_uniform(self, n: int, accuracy: float = 1e-9) -> _F64Array:
+        """``n`` parameters (ends included) splitting the curve into ``n - 1`` equal lengths."""
+    def resample_points(self, n: int, accuracy: float = 1e-9) -> _F64Array:
+        """The points at :meth:`resample_uniform`, shape ``(n, 2)``."""
+
+def arclen_batch(control_points: _ArrayLike, accuracy: float = 1e-9, method: str = "gauss") -> _F64Array:
+    """Arc lengths of ``m`` curves with ``n`` control points each, ``control_points`` of shape
+    ``(m, n, 2)``; returns ``(m,)``. ``method``: ``"gauss"`` (adaptive Gauss-Legendre) or
+    ``"simpson"``. One call, the GIL released."""
+
+@final
+class Spline:
+    """A chain of cubic Bézier segments through waypoints; segment ``i`` covers the global
+    parameter ``u in [i, i + 1]``.
+
+    Build one with :meth:`catmull_rom` (C1), :meth:`c2_natural`, :meth:`c2_clamped` (C2),
+    :meth:`hermite` (C1, given tangents) or from joined segments ``(k, 4, 2)``.
+    """
+
+    def __new__(cls, segments: _ArrayLike) -> Self: ...
+    @staticmethod
+    def catmull_rom(waypoints: _ArrayLike) -> Spline:
+        """The uniform Catmull-Rom spline (C1) through ``waypoints`` ``(n, 2)``, ``n >= 2``."""
+    @staticmethod
+    def c2_natural(waypoints: _ArrayLike) -> Spline:
+        """The natural C2 spline (zero second derivative at both ends)."""
+    @staticmethod
+    def c2_clamped(waypoints: _ArrayLike, start_tangent: _ArrayLike, end_tangent: _ArrayLike) -> Spline:
+        """The clamped C2 spline with end derivatives ``start_tangent``, ``end_tangent`` ``(2,)``."""
+    @staticmethod
+    def hermite(waypoints: _ArrayLike, tangents: _ArrayLike) -> Spline:
+        """The C1 spline with derivative ``tangents[i]`` at ``waypoints[i]`` (both ``(n, 2)``):
+        segment ``i`` is ``(w_i, w_i + d_i / 3, w_{i+1} - d_{i+1} / 3, w_{i+1})``."""
+    @property
+    def segments(self) -> _F64Array:
+        """Control points of the segments, shape ``(k, 4, 2)``."""
+    @property
+    def waypoints(self) -> _F64Array:
+        """The joints, shape ``(k + 1, 2)``."""
+    @property
+    def tangents(self) -> _F64Array:
+        """Derivatives at the joints, shape ``(k + 1, 2)``."""
+    def __len__(self) -> int: ...
+    def segment(self, index: int) -> Bezier:
+        """Segment ``index`` (negative counts from the end) as a cubic :class:`Bezier`."""
+    def eval(self, u: Union[float, _Params]) -> _F64Array:
+        """The point at global parameter ``u`` (clamped to ``[0, k]``); shapes as :meth:`Bezier.eval`."""
+    @overload
+    def curvature(self, u: float) -> float:
+        """Signed curvature at global parameter ``u``."""
+    @overload
+    def curvature(self, u: _Params) -> _F64Array: ...
+    def continuity(self, tolerance: float = 1e-9) -> str:
+        """``"C0"``, ``"C1"`` or ``"C2"``: the class holding at every joint."""
+    def segment_lengths(self, accuracy: float = 1e-9) -> _F64Array:
+        """Length of each segment, shape ``(k,)``."""
+    def arclen(self, accuracy: float = 1e-9) -> float:
+        """Total length, absolute error at most ``accuracy``."""
+    def bounding_box(self) -> tuple[float, float, float, float]:
+        """The exact bounding box ``(x_min, y_min, x_max, y_max)``."""
+    def jerk_cost_param(self) -> float:
+        """Parametric jerk ``sum_i int_0^1 |B_i'''(t)|^2 dt`` (unit time per segment)."""
+    def curvature_sum_param(self, samples_per_segment: int = 100) -> float:
+        """Sum of ``|curvature|`` at ``samples_per_segment`` parameters uniform in each segment."""
+
+@final
+class SigmoidProfile:
+    """The paper's sigmoid distance-time profile ``s(T) = L S(T / T_f)``,
+    ``S(tau) = (sigma(tau) - sigma(0)) / (sigma(1) - sigma(0))``,
+    ``sigma(tau) = 1 / (1 + exp(-m (tau - k)))``: steepness ``m >= 0``, midpoint ``k``."""
+
+    def __new__(cls, length: float, m: float, duration: float, k: float = 0.5) -> Self: ...
+    @staticmethod
+    def with_max_speed(length: float, m: float, max_speed: float = 1.0, k: float = 0.5) -> SigmoidProfile:
+        """The shortest profile over ``length`` whose peak speed is ``max_speed``."""
+    @staticmethod
+    def max_steepness(length: float, duration: float, max_speed: float, k: float = 0.5) -> float:
+        """The largest ``m`` keeping the peak speed at or below ``max_speed`` for ``duration``."""
+    @property
+    def length(self) -> float:
+        """Path length ``L``."""
+    @property
+    def m(self) -> float:
+        """Steepness ``m``."""
+    @property
+    def k(self) -> float:
+        """Midpoint ``k`` (fraction of the duration)."""
+    @property
+    def duration(self) -> float:
+        """Duration ``T_f``."""
+    @property
+    def peak_speed(self) -> float:
+        """Peak speed."""
+    @overload
+    def distance(self, time: float) -> float:
+        """Distance ``s(T)`` (0 before the start, ``L`` after the end); vectorised."""
+    @overload
+    def distance(self, time: _Params) -> _F64Array: ...
+    @overload
+    def derivatives(self, time: float) -> tuple[float, float, float, float]:
+        """``(s, s', s'', s''')`` at ``time``: distance, speed, acceleration, jerk."""
+    @overload
+    def derivatives(self, time: _Params) -> tuple[_F64Array, _F64Array, _F64Array, _F64Array]: ...
+    @overload
+    def time_at_distance(self, s: float) -> float:
+        """The time at which the distance is ``s`` (clamped to ``[0, L]``); vectorised."""
+    @overload
+    def time_at_distance(self, s: _Params) -> _F64Array: ...
+
+@final
+class TrajectorySamples:
+    """Kinematic samples of a :class:`Trajectory`, one row per time (arrays of length ``n``)."""
+
+    def __len__(self) -> int: ...
+    @property
+    def time(self) -> _F64Array:
+        """Times, ``(n,)``."""
+    @property
+    def distance(self) -> _F64Array:
+        """Distance along the path, ``(n,)``."""
+    @property
+    def segment(self) -> npt.NDArray[np.int64]:
+        """Segment index, ``(n,)``."""
+    @property
+    def t(self) -> _F64Array:
+        """Local parameter in the segment, ``(n,)``."""
+    @property
+    def position(self) -> _F64Array:
+        """Position, ``(n, 2)``."""
+    @property
+    def velocity(self) -> _F64Array:
+        """Velocity, ``(n, 2)``."""
+    @property
+    def acceleration(self) -> _F64Array:
+        """Acceleration, ``(n, 2)``."""
+    @property
+    def jerk(self) -> _F64Array:
+        """Jerk (tangential and normal), ``(n, 2)``."""
+    @property
+    def speed(self) -> _F64Array:
+        """Speed ``s'``, ``(n,)``."""
+    @property
+    def tangential_acceleration(self) -> _F64Array:
+        """Tangential acceleration ``s''``, ``(n,)``."""
+    @property
+    def heading(self) -> _F64Array:
+        """Heading (angle of the unit tangent), ``(n,)``."""
+    @property
+    def curvature(self) -> _F64Array:
+        """Signed curvature, ``(n,)``."""
+    @property
+    def yaw_rate(self) -> _F64Array:
+        """Yaw rate ``curvature * speed``, ``(n,)``."""
+
+@final
+class Trajectory:
+    """A :class:`Spline` traversed with a :class:`SigmoidProfile`: the time-parametrised
+    reference (or initial guess) for DDP."""
+
+    def __new__(cls, spline: Spline, profile: SigmoidProfile) -> Self: ...
+    @staticmethod
+    def with_sigmoid(spline: Spline, m: float = 10.0, k: float = 0.5, max_speed: float = 1.0) -> Trajectory:
+        """``spline`` with a sigmoid of steepness ``m``, midpoint ``k``, peak speed ``max_speed``."""
+    @property
+    def spline(self) -> Spline:
+        """The path."""
+    @property
+    def profile(self) -> SigmoidProfile:
+        """The motion profile."""
+    @property
+    def duration(self) -> float:
+        """Duration ``T_f``."""
+    @property
+    def length(self) -> float:
+        """Path length."""
+    def position(self, time: Union[float, _Params]) -> _F64Array:
+        """Position at ``time`` (held at the ends outside ``[0, T_f]``)."""
+    def sample(self, times: Union[float, _ArrayLike]) -> TrajectorySamples:
+        """Full kinematic state at each of ``times`` (a number or a 1-D array)."""
+    def sample_grid(self, dt: float, steps: Optional[int] = None) -> TrajectorySamples:
+        """Samples at ``T_k = k dt``, ``k = 0..steps`` (default: enough to cover the duration),
+        heading unwrapped."""
+    def unicycle(self, dt: float, steps: Optional[int] = None) -> tuple[_F64Array, _F64Array]:
+        """Unicycle states ``(x, y, theta)`` ``(steps + 1, 3)`` and controls ``(v, omega)``
+        ``(steps, 2)`` on the grid ``T_k = k dt`` (for :class:`Unicycle`)."""
+    def car(self, dt: float, steps: Optional[int] = None) -> tuple[_F64Array, _F64Array]:
+        """Car states ``(x, y, theta, v)`` ``(steps + 1, 4)`` and controls ``(omega, a)``
+        ``(steps, 2)`` (for :class:`Car`)."""
+    def jerk_cost_discrete(self, samples: int = 100) -> float:
+        """The paper's discrete jerk (tangential speed, second differences, ``sum j_k^2 dT``)."""
+    def jerk_cost_integral(self, accuracy: float = 1e-8) -> float:
+        """``int |x'''(T)|^2 dT`` of the full 2D jerk, to relative ``accuracy``."""
+    def curvature_sum(self, samples: int = 100) -> float:
+        """The paper's curvature measure: ``sum |curvature|`` at ``samples`` uniform times."""
+
+def spline_cost(
+    spline: Spline,
+    *,
+    jerk_weight: float = 1.0,
+    curvature_weight: float = 0.01,
+    m: float = 10.0,
+    k: float = 0.5,
+    max_speed: float = 1.0,
+    samples: int = 100,
+    jerk: str = "integral",
+) -> float:
+    """Paper 002's objective for ``spline`` with a sigmoid profile:
+    ``jerk_weight * J + curvature_weight * K`` (``J``: ``"integral"`` 2D jerk or the paper's
+    ``"discrete"`` one; ``K``: sum of ``|curvature|`` at ``samples`` uniform times)."""
+
+@final
+class SplineOptimizeResult:
+    """The result of :func:`optimize_spline`."""
+
+    @property
+    def spline(self) -> Spline:
+        """The optimised spline (through the same waypoints)."""
+    @property
+    def initial_cost(self) -> float:
+        """Cost of the starting spline."""
+    @property
+    def cost(self) -> float:
+        """Final cost."""
+    @property
+    def iterations(self) -> int:
+        """BFGS iterations."""
+    @property
+    def evaluations(self) -> int:
+        """Cost evaluations."""
+    @property
+    def status(self) -> str:
+        """``"converged"``, ``"max_iterations"`` or ``"line_search_failed"``."""
+
+def optimize_spline(
+    waypoints: _ArrayLike,
+    *,
+    continuity: str = "C1",
+    max_iterations: int = 100,
+    gradient_tolerance: float = 1e-6,
+    jerk_weight: float = 1.0,
+    curvature_weight: float = 0.01,
+    m: float = 10.0,
+    k: float = 0.5,
+    max_speed: float = 1.0,
+    samples: int = 100,
+    jerk: str = "integral",
+) -> SplineOptimizeResult:
+    """The direct optimiser: BFGS on the free tangents of a spline through ``waypoints``
+    (C1: all of them; C2: the end ones), minimising :func:`spline_cost` from Catmull-Rom (C1)
+    or the natural spline (C2). The GIL is released."""
+

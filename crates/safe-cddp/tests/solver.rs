@@ -10,7 +10,7 @@ use safe_cddp::qp::QpMethod;
 use safe_cddp::{Constraint, SafeCddpSolver, Settings, Status};
 
 fn problems_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/bench/problems")
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/problems")
 }
 
 #[test]

@@ -5,9 +5,7 @@ use safe_cddp::benchmark::BenchmarkProblem;
 use safe_cddp::{SafeCddpSolver, Settings};
 
 fn main() -> ddp_core::Result<()> {
-    let dir = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| "bench/problems".into());
+    let dir = std::env::args().nth(1).unwrap_or_else(|| "bench/problems".into());
     for (file, peer) in [("p2_car4.json", 1.1972797), ("p3_point4.json", 1.8958999)] {
         let p = BenchmarkProblem::from_file(format!("{dir}/{file}"))?;
         let (problem, constraints) = p.car_or_point()?;

@@ -1,7 +1,16 @@
 #!/usr/bin/env python3
-"""ddpkit against Crocoddyl on benchmark P1 (bench/problems.md), side by side in one process.
+"""ddpkit against its peers on the benchmark problems (bench/problems.md), in one process.
 
-    python bench/peers/compare.py [--repeats 50] [--json results.json]
+    python bench/peers/compare.py [--repeats 50] [--json results.json] [--skip-p1] [--skip-constrained]
+
+P1 (unconstrained): ddpkit DDP / iLQR against Crocoddyl DDP / FDDP. P2 and P3 (three circular
+obstacles each): ddpkit's constrained solver (`SafeCddpSolver`, the default of `solve.py`) and
+its penalty path against CasADi + IPOPT and CasADi + FATROP (both from pip `casadi`), every
+solver judged by the same numpy definition of the problem (`problem_file.py`): cost, largest
+violation (dynamics defect, control box, obstacles), milliseconds per cold solve and the ratio of
+each peer's time to ddpkit's. CasADi: multiple shooting with `Opti` built once, `expand = True`, the
+variables and constraints in stage order (FATROP's structure detection needs it), IPOPT with
+`tol = 1e-8` and MUMPS, FATROP with its defaults; initial guess zero controls and `x0` repeated.
 
 Every solver is timed on cold solves (the same initial guess each time: zero controls, and for
 Crocoddyl `xs = [x0] * (N + 1)`), single-threaded, interleaved round-robin so that a slow period of
@@ -13,7 +22,7 @@ Columns: accepted iterations, final cost, microseconds per iteration and millise
 `(inside Rust)` give ddpkit's own solve time, so the difference is the cost of the Python
 binding (argument checks, copying the results into numpy arrays).
 
-Without crocoddyl installed, ddpkit's rows are printed with a note.
+Without crocoddyl or casadi installed, the other rows are printed with a note.
 """
 
 from __future__ import annotations
@@ -52,6 +61,8 @@ class Entry:
         self.inside: list[float] = []
         self.iterations = 0
         self.cost = float("nan")
+        #: The last solution `(xs, us, status)`, where the solve callable records it.
+        self.solution: Any = None
 
     def run_once(self) -> None:
         t0 = time.perf_counter()
@@ -105,20 +116,193 @@ def crocoddyl_entries() -> Optional[list[Entry]]:
     return entries
 
 
+PEERS = Path(__file__).resolve().parent
+PROBLEMS = PEERS.parent / "problems"
+#: Costs found by the peers (bench/problems.md).
+PEER_COST = {"p2_car4": 1.1972797, "p3_point4": 1.8958999}
+
+
+def casadi_entry(p: Any, plugin: str) -> Optional[Entry]:
+    """CasADi + `plugin` ("ipopt" or "fatrop") on problem `p`; None without casadi. The `Opti`
+    problem is built once (multiple shooting, `expand = True`, variables and constraints in stage
+    order as FATROP's structure detection needs) and every solve starts from the same guess."""
+    try:
+        import casadi as ca
+    except ImportError:
+        return None
+    opti = ca.Opti()
+    nx, nu, n, dt = p.nx, p.nu, p.N, p.dt
+    xs_v, us_v = [], []
+    for k in range(n + 1):  # stage order: x_0, u_0, x_1, u_1, ..., x_N
+        xs_v.append(opti.variable(nx))
+        if k < n:
+            us_v.append(opti.variable(nu))
+
+    def f(x: Any, u: Any) -> Any:
+        if p.model == "car":
+            return ca.vertcat(x[0] + dt * x[3] * ca.cos(x[2]), x[1] + dt * x[3] * ca.sin(x[2]), x[2] + dt * u[0], x[3] + dt * u[1])
+        if p.model == "point":
+            return ca.vertcat(
+                x[0] + dt * x[2] + 0.5 * dt * dt * u[0], x[1] + dt * x[3] + 0.5 * dt * dt * u[1], x[2] + dt * u[0], x[3] + dt * u[1]
+            )
+        return ca.vertcat(x[0] + dt * u[0] * ca.cos(x[2]), x[1] + dt * u[0] * ca.sin(x[2]), x[2] + dt * u[1])
+
+    cost = 0
+    for k in range(n):
+        cost += 0.5 * ca.sumsqr(ca.sqrt(ca.DM(p.R)) * us_v[k])
+    cost += 0.5 * ca.sumsqr(ca.sqrt(ca.DM(p.Qf)) * (xs_v[n] - ca.DM(p.x_goal)))
+    opti.minimize(cost)
+
+    def obstacle_rows(k: int) -> None:
+        for o in p.obstacles:
+            opti.subject_to((xs_v[k][0] - o[0]) ** 2 + (xs_v[k][1] - o[1]) ** 2 >= o[2] ** 2)
+
+    opti.subject_to(xs_v[0] == ca.DM(p.x0))
+    for k in range(n):
+        opti.subject_to(xs_v[k + 1] == f(xs_v[k], us_v[k]))  # gap closing, stage k
+        if p.u_min is not None:
+            opti.subject_to(opti.bounded(ca.DM(p.u_min), us_v[k], ca.DM(p.u_max)))
+        if k >= 1:
+            obstacle_rows(k)
+    obstacle_rows(n)
+    if plugin == "ipopt":
+        opti.solver("ipopt", {"expand": True, "print_time": False}, {"tol": 1e-8, "linear_solver": "mumps", "print_level": 0, "sb": "yes"})
+    else:
+        opti.solver("fatrop", {"expand": True, "print_time": False, "structure_detection": "auto", "fatrop": {"print_level": 0}})
+    label = "CasADi + IPOPT" if plugin == "ipopt" else "CasADi + FATROP"
+    entry = Entry(label, lambda: (0, float("nan"), None))
+
+    def solve() -> tuple[int, float, Optional[float]]:
+        for k in range(n + 1):
+            opti.set_initial(xs_v[k], p.x0)
+        for k in range(n):
+            opti.set_initial(us_v[k], np.zeros(nu))
+        try:
+            sol = opti.solve()
+            stats = sol.stats()
+            value = sol.value
+        except RuntimeError:  # not converged: judge the last iterate like any other
+            stats = opti.stats()
+            value = opti.debug.value
+        xs = np.array([np.asarray(value(v)).reshape(nx) for v in xs_v])
+        us = np.array([np.asarray(value(v)).reshape(nu) for v in us_v])
+        entry.solution = (xs, us, str(stats.get("return_status", stats.get("success"))))
+        return int(stats.get("iter_count", -1)), p.objective(xs, us), None
+
+    entry.solve = solve
+    return entry
+
+
+def ddpkit_constrained_entries(p: Any) -> list[Entry]:
+    sys.path.insert(0, str(PEERS))
+    from solve import DdpkitSolver
+
+    entries = []
+    for obstacles, label in (("constrained", "ddpkit SafeCddpSolver"), ("penalty", "ddpkit penalty (AL rounds)")):
+        solver = DdpkitSolver(p, obstacles=obstacles)
+        entry = Entry(label, lambda: (0, float("nan"), None))
+
+        def solve(solver: Any = solver, entry: Entry = entry) -> tuple[int, float, Optional[float]]:
+            xs, us, iterations, status, _ = solver.solve_raw()  # cold
+            entry.solution = (xs, us, status)
+            return iterations, p.objective(xs, us), None
+
+        entry.solve = solve
+        entries.append(entry)
+    return entries
+
+
+def constrained_comparison(repeats: int, warmup: int) -> tuple[list[dict[str, Any]], bool]:
+    """P2 and P3: every solver, interleaved; rows with cost, violation, time and ratio."""
+    from problem_file import load
+
+    rows: list[dict[str, Any]] = []
+    have_casadi = True
+    for name in ("p2_car4", "p3_point4"):
+        p = load(PROBLEMS / f"{name}.json")
+        entries = ddpkit_constrained_entries(p)
+        for plugin in ("ipopt", "fatrop"):
+            e = casadi_entry(p, plugin)
+            if e is None:
+                have_casadi = False
+            else:
+                entries.append(e)
+        for e in entries:
+            for _ in range(warmup):
+                e.run_once()
+            e.wall.clear()
+        for _ in range(repeats):
+            for e in entries:
+                e.run_once()
+        base = statistics.median(entries[0].wall) * 1e3
+        for e in entries:
+            xs, us, status = e.solution
+            ms = statistics.median(e.wall) * 1e3
+            violations = p.violations(xs, us)
+            rows.append(
+                {
+                    "problem": name,
+                    "solver": e.name,
+                    "status": status,
+                    "iterations": e.iterations,
+                    "cost": e.cost,
+                    "peer_cost": PEER_COST[name],
+                    "rel_cost_vs_peers": (e.cost - PEER_COST[name]) / PEER_COST[name],
+                    "max_violation": max(violations.values()),
+                    "ms_per_solve": ms,
+                    "solves": len(e.wall),
+                    "time_vs_ddpkit": ms / base,
+                }
+            )
+    return rows, have_casadi
+
+
 def main(argv: Optional[list[str]] = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=50, help="timed cold solves per solver (>= 20)")
     ap.add_argument("--warmup", type=int, default=5, help="untimed solves per solver first")
     ap.add_argument("--json", type=Path, help="also write the results here")
+    ap.add_argument("--skip-p1", action="store_true", help="only P2 and P3")
+    ap.add_argument("--skip-constrained", action="store_true", help="only P1")
     args = ap.parse_args(argv)
     repeats = max(20, args.repeats)
+    payload: dict[str, Any] = {"repeats": repeats, "python": sys.version.split()[0]}
+    if not args.skip_p1:
+        payload.update(p1_comparison(repeats, args.warmup))
+    if not args.skip_constrained:
+        rows, have_casadi = constrained_comparison(repeats, args.warmup)
+        print()
+        print(f"P2 and P3 (three obstacles each): median of {repeats} cold solves, single-threaded, interleaved")
+        header = (
+            f"{'problem':<10} {'solver':<28} {'iter':>5} {'cost':>14} {'vs peers':>10} {'max viol':>9} "
+            f"{'ms/solve':>9} {'x ddpkit':>9}"
+        )
+        print(header)
+        print("-" * len(header))
+        for r in rows:
+            print(
+                f"{r['problem']:<10} {r['solver']:<28} {r['iterations']:>5} {r['cost']:>14.10f} "
+                f"{r['rel_cost_vs_peers']:>10.2e} {r['max_violation']:>9.1e} {r['ms_per_solve']:>9.3f} "
+                f"{r['time_vs_ddpkit']:>9.1f}"
+            )
+        if not have_casadi:
+            print("casadi is missing (pip install casadi): IPOPT and FATROP were not timed")
+        payload["constrained"] = {"casadi": have_casadi, "rows": rows}
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(payload, indent=2) + "\n")
+    return 0
+
+
+def p1_comparison(repeats: int, warmup: int) -> dict[str, Any]:
+    """P1: ddpkit DDP / iLQR against Crocoddyl DDP / FDDP (printed; returned for the JSON)."""
 
     entries = ddpkit_entries()
     croc = crocoddyl_entries()
     if croc is not None:
         entries = croc + entries
     for e in entries:
-        for _ in range(args.warmup):
+        for _ in range(warmup):
             e.solve()
     for _ in range(repeats):
         for e in entries:
@@ -173,17 +357,11 @@ def main(argv: Optional[list[str]] = None) -> int:
         if r["rel_cost_error"] > 1e-6:
             print(f"warning: {r['solver']} cost {r['cost']!r} differs from {P1_COST} by more than 1e-6 relative")
 
-    if args.json is not None:
-        payload = {
-            "problem": "P1 unicycle",
-            "repeats": repeats,
-            "crocoddyl": croc is not None,
-            "python": sys.version.split()[0],
-            "rows": rows,
-        }
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(payload, indent=2) + "\n")
-    return 0
+    return {
+        "problem": "P1 unicycle",
+        "crocoddyl": croc is not None,
+        "rows": rows,
+    }
 
 
 if __name__ == "__main__":

@@ -14,12 +14,18 @@ How each part of the problem is handled:
 - cost `unicycle`: `QuadraticCost(Q = w_x^2 I, R = w_u^2 I)`, terminal `QuadraticTerminal(w_x^2 I)`;
   cost `quad_goal`: `QuadraticCost(0, diag(R))`, terminal `QuadraticTerminal(diag(Qf), x_goal)`;
 - control box: box-DDP (`u_min`, `u_max` of the `Problem`), exact;
-- obstacles: ddpkit has no constrained solver yet, so they are a penalty: the squared hinge
-  `w * max(0, h)^2` of `h = r^2 - |p - o|^2` (`ddpkit.CirclePenalty`) on x_1..x_N, with shifted
-  radii as in an augmented Lagrangian (`h + lambda / (2 w)`, one multiplier per knot and obstacle,
-  updated after each round) and `w` raised over a few warm-started rounds until the violation is
-  below the tolerance. The reported cost is the problem's objective without any penalty, and
-  `max_violation` is computed from the problem's own definition, in numpy, never by ddpkit.
+- obstacles (`--method constrained`, the default): ddpkit's Safe-CDDP solver without
+  tightening (`ddpkit.SafeCddpSolver`: an augmented-Lagrangian warm-up, then Xie et al.'s KKT
+  backward pass and per-step QPs), each obstacle a `ddpkit.Circle` in the squared-distance form
+  of the problem file, imposed on x_1..x_N;
+- obstacles (`--method penalty`): the squared hinge `w * max(0, h)^2` of `h = r^2 - |p - o|^2`
+  (`ddpkit.CirclePenalty`) on x_1..x_N, with shifted radii as in an augmented Lagrangian
+  (`h + lambda / (2 w)`, one multiplier per knot and obstacle, updated after each round) and `w`
+  raised over a few warm-started rounds until the violation is below the tolerance, using the
+  unconstrained solver.
+
+The reported cost is the problem's objective without any penalty, and `max_violation` is
+computed from the problem's own definition, in numpy, never by ddpkit.
 
 A malformed file exits with status 2 and an error naming the field, e.g.
 `error: field 'cost.Qf' must have 4 entries, got 3`.
@@ -95,9 +101,13 @@ class DdpkitSolver:
         max_iterations: int = 500,
         weights: tuple[float, ...] = (1e2, 1e3, 1e4, 1e5, 1e6),
         max_rounds: int = 12,
+        obstacles: str = "constrained",
     ) -> None:
+        if obstacles not in ("constrained", "penalty"):
+            raise ValueError(f"obstacles must be 'constrained' or 'penalty', got {obstacles!r}")
         self.p = p
         self.method = method
+        self.obstacles = obstacles
         self.max_iterations = max_iterations
         self.weights = weights
         self.max_rounds = max_rounds
@@ -108,6 +118,11 @@ class DdpkitSolver:
             p.x0, self.model, self.running, self.terminal, p.N, u_min=p.u_min, u_max=p.u_max
         )
         self.base_solver = ddpkit.Solver(self.base, method=method, max_iterations=max_iterations)
+        # The constrained solver (Safe-CDDP without tightening), workspace allocated once.
+        self.constrained: Optional[ddpkit.SafeCddpSolver] = None
+        if len(p.obstacles) > 0 and obstacles == "constrained":
+            circles = [ddpkit.Circle(o[:2], float(o[2])) for o in p.obstacles]
+            self.constrained = ddpkit.SafeCddpSolver(self.base, circles, method=method, max_iterations=max_iterations)
 
     def _penalised(self, w: float, lam: np.ndarray) -> ddpkit.Problem:
         """Problem with the obstacle penalty of weight `w` and multipliers `lam` (N, m): the radii
@@ -148,6 +163,9 @@ class DdpkitSolver:
         if len(p.obstacles) == 0:
             sol = self.base_solver.solve()  # cold
             return sol.xs, sol.us, sol.iterations, sol.status, 1
+        if self.constrained is not None:
+            c = self.constrained.solve()  # cold: zero controls, multipliers and penalty reset
+            return c.xs, c.us, c.iterations, c.status, 1
         lam = np.zeros((p.N, len(p.obstacles)))
         us: Optional[np.ndarray] = None
         iterations, rounds, status = 0, 0, "max_iterations"
@@ -206,14 +224,20 @@ def main(argv: Optional[list[str]] = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("problem", type=Path, help="problem file (bench/problems.md format)")
     ap.add_argument("--out", type=Path, required=True, help="where to write the .npz solution")
-    ap.add_argument("--method", choices=["ilqr", "ddp"], default="ilqr")
+    ap.add_argument(
+        "--method",
+        choices=["constrained", "penalty"],
+        default="constrained",
+        help="obstacles: ddpkit's constrained solver (default) or the augmented-Lagrangian penalty path",
+    )
+    ap.add_argument("--ddp", choices=["ilqr", "ddp"], default="ilqr", help="backward pass: iLQR or full DDP")
     ap.add_argument("--max-iterations", type=int, default=500, help="per solve (per penalty round)")
     ap.add_argument("--repeats", type=int, default=20, help="minimum number of timed cold solves")
     args = ap.parse_args(argv)
 
     try:
         problem = load(args.problem)
-        solver = DdpkitSolver(problem, method=args.method, max_iterations=args.max_iterations)
+        solver = DdpkitSolver(problem, method=args.ddp, max_iterations=args.max_iterations, obstacles=args.method)
     except (ProblemFileError, ddpkit.DdpError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -237,6 +261,7 @@ def main(argv: Optional[list[str]] = None) -> int:
         obstacle_violation=result.violations["obstacle"],
         penalty_rounds=result.rounds,
         method=args.method,
+        ddp=args.ddp,
     )
     tmp.replace(args.out)  # complete or absent
     print(

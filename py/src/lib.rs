@@ -11,6 +11,7 @@
 //! | [`costs`] | `Cost` and the cost terms |
 //! | [`problem`] | `Problem` |
 //! | [`solver`] | `Solver`, `Solution`, `default_settings` |
+//! | [`safe`] | `Constraint` and the constraints, `Tightening`, `SafeCddpSolver`, `SafeSolution`, `Mpc`, `Episode` (Safe-CDDP) |
 //! | [`bezier`] | `Bezier`, `Spline`, `SigmoidProfile`, `Trajectory`, costs, `optimize_spline` (public as `ddpkit.bezier`) |
 
 #[macro_use]
@@ -21,6 +22,7 @@ pub mod costs;
 pub mod errors;
 pub mod models;
 pub mod problem;
+pub mod safe;
 pub mod solver;
 
 use pyo3::prelude::*;
@@ -58,6 +60,7 @@ fn _ddpkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solver::default_settings, m)?)?;
     m.add_function(wrap_pyfunction!(supported_dimensions, m)?)?;
     bezier::register(m)?;
+    safe::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

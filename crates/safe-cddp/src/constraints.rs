@@ -6,12 +6,13 @@
 //! | [`Circle`] (distance form) | `r - |p - c|` | state | the geometric margin of eq. (20) in metres |
 //! | [`MovingCircle`] | as [`Circle`] with a predicted centre `c_t` and its covariance | state | dynamic obstacles (Kalman tracker) |
 //! | [`ConvexPolygon`] | `margin - sd(p)` with parry's signed distance `sd` | state | polygonal obstacles |
+//! | [`Cylinder`] | `min(r - |p_xy - c|, h - z)`, rim smoothed | state | a vertical cylinder of height `h` for a 3-D robot (Table I's quadrotor) |
 //! | [`StateBox`] | `x_i - hi_i`, `lo_i - x_i` | state | state limits |
 //! | [`ControlBox`] | `u_i - hi_i`, `lo_i - u_i` | mixed | input limits (tightened, unlike [`ddp_core::ControlBounds`]) |
 //! | [`FiniteDiffConstraint`] | any `g(t, x, u)` | either | user constraints without hand-written Jacobians |
 //!
-//! `p = (x[i0], x[i1])` is the planar position picked by `indices`; a vertical cylinder for the
-//! quadrotor is a [`Circle`] on `(px, py)`.
+//! `p = (x[i0], x[i1])` is the planar position picked by `indices`; for a 3-D robot an infinitely
+//! tall cylinder is a [`Circle`] on `(px, py)`, one it can fly over a [`Cylinder`].
 //!
 //! ```
 //! use safe_cddp::constraints::Circle;
@@ -380,6 +381,132 @@ impl<const NX: usize, const NU: usize> Constraint<NX, NU> for ConvexPolygon<NX> 
         g_x[0] = Vector::zeros();
         g_x[0][i] = -n[0];
         g_x[0][j] = -n[1];
+        g_u[0] = Vector::zeros();
+    }
+}
+
+/// A vertical cylinder standing on the ground, of radius `r` around `(cx, cy)` and height `h`:
+/// the robot collides when `|p_xy - c| < r` **and** `z < h`, i.e. when `min(a, b) > 0` with
+/// `a = r - |p_xy - c|` (distance to the side) and `b = h - z` (distance to the top). That minimum
+/// has a kink on the rim (`a = b`), so the row is its C1 smooth minimum with band `w`:
+///
+/// ```text
+/// g = min(a, b) - w/4 s^2,   s = max(0, w - |a - b|) / w
+/// ```
+///
+/// which is exact wherever `|a - b| >= w` (beside the cylinder, above its top) and lower than
+/// `min(a, b)` by at most `w/4` on the rim itself. A robot can pass beside it or over it (Table I's
+/// quadrotor hovers above one); [`Cylinder::contains`] is the exact test.
+///
+/// ```
+/// use safe_cddp::constraints::Cylinder;
+/// use safe_cddp::Constraint;
+/// use ddp_core::Vector;
+/// let c = Cylinder::new([0.0, 0.0], 0.5, 1.0, 0.02, [0, 1, 2]).unwrap();
+/// let mut g = [0.0];
+/// let mut x = Vector::<12>::zeros();
+/// x[0] = 0.3; // 0.2 m inside the side ...
+/// x[2] = 0.5; // ... and 0.5 m below the top: g = min(0.2, 0.5)
+/// Constraint::<12, 4>::evaluate(&c, 0, &x, &Vector::zeros(), &mut g);
+/// assert!((g[0] - 0.2).abs() < 1e-12);
+/// x[2] = 1.2; // 0.2 m above the top: outside
+/// Constraint::<12, 4>::evaluate(&c, 0, &x, &Vector::zeros(), &mut g);
+/// assert!((g[0] + 0.2).abs() < 1e-12);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cylinder<const NX: usize> {
+    center: [f64; 2],
+    radius: f64,
+    height: f64,
+    band: f64,
+    indices: [usize; 3],
+}
+
+impl<const NX: usize> Cylinder<NX> {
+    /// A cylinder of `radius` and `height` at `center` on the position
+    /// `(x[indices[0]], x[indices[1]], x[indices[2]])` (z up), its rim smoothed over a band
+    /// `band > 0` (m, e.g. 0.02). Errors name the field.
+    pub fn new(center: [f64; 2], radius: f64, height: f64, band: f64, indices: [usize; 3]) -> Result<Self> {
+        check_finite("center", center.iter())?;
+        check_finite("height", [height].iter())?;
+        check_indices::<NX>([indices[0], indices[1]])?;
+        check_indices::<NX>([indices[0], indices[2]])?;
+        check_indices::<NX>([indices[1], indices[2]])?;
+        if !(band.is_finite() && band > 0.0) {
+            return Err(Error::invalid("band", format!("must be finite and > 0, got {band}")));
+        }
+        Ok(Self {
+            center,
+            radius: nonneg("radius", radius)?,
+            height,
+            band,
+            indices,
+        })
+    }
+    /// The centre of the base.
+    pub fn center(&self) -> [f64; 2] {
+        self.center
+    }
+    /// The radius.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+    /// The height of the top.
+    pub fn height(&self) -> f64 {
+        self.height
+    }
+    /// Whether the point `x` is inside the (unsmoothed) cylinder.
+    pub fn contains(&self, x: &Vector<NX>) -> bool {
+        let [i, j, k] = self.indices;
+        (x[i] - self.center[0]).hypot(x[j] - self.center[1]) < self.radius && x[k] < self.height
+    }
+    /// `g`, `dg/d(px, py, pz)`.
+    fn terms(&self, x: &Vector<NX>) -> (f64, [f64; 3]) {
+        let [i, j, k] = self.indices;
+        let (ex, ey) = (x[i] - self.center[0], x[j] - self.center[1]);
+        let d = ex.hypot(ey);
+        let a = self.radius - d;
+        let b = self.height - x[k];
+        let w = self.band;
+        let s = (w - (a - b).abs()).max(0.0) / w;
+        // Gradient of min(a, b) - w/4 s^2 in (a, b): (1 - s/2, s/2) when a < b (1 and 0 outside
+        // the band, 1/2 each on the rim), mirrored otherwise.
+        let (ga, gb) = if a < b {
+            (1.0 - 0.5 * s, 0.5 * s)
+        } else {
+            (0.5 * s, 1.0 - 0.5 * s)
+        };
+        let g = a.min(b) - 0.25 * w * s * s;
+        let (nx, ny) = if d > 1e-12 { (ex / d, ey / d) } else { (0.0, 0.0) };
+        (g, [-ga * nx, -ga * ny, -gb])
+    }
+}
+
+impl<const NX: usize, const NU: usize> Constraint<NX, NU> for Cylinder<NX> {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn depends_on_control(&self) -> bool {
+        false
+    }
+    fn evaluate(&self, _t: usize, x: &Vector<NX>, _u: &Vector<NU>, g: &mut [f64]) {
+        g[0] = self.terms(x).0;
+    }
+    fn jacobians(
+        &self,
+        _t: usize,
+        x: &Vector<NX>,
+        _u: &Vector<NU>,
+        g: &mut [f64],
+        g_x: &mut [Vector<NX>],
+        g_u: &mut [Vector<NU>],
+    ) {
+        let (v, d) = self.terms(x);
+        g[0] = v;
+        g_x[0] = Vector::zeros();
+        for (c, &i) in self.indices.iter().enumerate() {
+            g_x[0][i] = d[c];
+        }
         g_u[0] = Vector::zeros();
     }
 }

@@ -22,7 +22,9 @@
 //! | `Sigma_x` | [`SafeCddpSolver::covariances`], [`tightening::propagate_covariance`] | (19) |
 //! | `phi^{-1}(beta)` | [`quantile::normal_quantile`] | (20) |
 //! | margins | [`SafeCddpSolver::margins`], [`tightening::margin`] | (20) |
+//! | `K` of eq. (19) | [`Gains`], [`SafeCddpSolver::propagation_gains`] | (19) |
 //! | `n1`, `n2` | [`mpc::MpcSettings::iterations`], [`Tightening::update_every`] | Alg. 1 |
+//! | Table I | [`table`], the binary `safe-cddp-table` (feature `cli`) | §IV |
 //! | obstacle tracker `F`, `G` | [`kalman::ObstacleTracker`] | paper 002 |
 //!
 //! ```
@@ -50,6 +52,7 @@ pub mod qp;
 pub mod quantile;
 pub mod settings;
 pub mod solver;
+pub mod table;
 pub mod tightening;
 
 pub use constraint::{check_constraint_derivatives, Constraint, ConstraintDerivativeErrors};

@@ -238,16 +238,20 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
     }
 
     fn run_iterations(&mut self, iterations: usize) -> Result<bool> {
-        let n2 = self.solver.tightening().map(|t| t.update_every());
+        let tightening = self.solver.tightening().copied();
         let mut infeasible = false;
-        for iter in 0..iterations {
+        // The first KKT/QP iteration of a step tightens (Algorithm 1: iter % n2 == 0), then every n2.
+        let mut since = usize::MAX / 2;
+        for _ in 0..iterations {
             let outcome = self.solver.iterate(&self.problem)?;
             if let IterationOutcome::Failed(crate::Status::Infeasible { .. }) = outcome {
                 infeasible = true;
             }
-            if let Some(n2) = n2 {
-                if iter % n2 == 0 {
+            if let Some(t) = &tightening {
+                since += 1;
+                if self.solver.tightening_due(since, t) {
                     self.solver.tighten(&self.problem)?;
+                    since = 0;
                 }
             }
             if matches!(outcome, IterationOutcome::Converged | IterationOutcome::Failed(_)) {
@@ -280,7 +284,7 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
             xs: vec![x],
             us: Vec::new(),
             initial_covariances: self.solver.covariances().to_vec(),
-            initial_gain_norms: self.solver.gains().iter().map(|k| k.norm()).collect(),
+            initial_gain_norms: self.solver.propagation_gains().iter().map(|k| k.norm()).collect(),
             initial_plan: self.solver.xs().to_vec(),
         };
         let dynamics = self.problem.knots()[0].dynamics.clone();

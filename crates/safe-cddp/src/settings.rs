@@ -77,6 +77,10 @@ pub struct Settings {
     pub al_switch_violation: f64,
     /// Relative merit change below which an inner warm-up solve counts as done (multiplier update).
     pub al_inner_tolerance: f64,
+    /// Most accepted inner iterations between two multiplier updates of the warm-up: the inner
+    /// solves are inexact, and on a long obstacle-hugging valley (the car) waiting for
+    /// `al_inner_tolerance` can take a hundred iterations of little progress.
+    pub al_inner_iterations: usize,
 }
 
 impl Default for Settings {
@@ -109,6 +113,7 @@ impl Default for Settings {
             al_rho_max: 1e8,
             al_switch_violation: 1e-8,
             al_inner_tolerance: 1e-7,
+            al_inner_iterations: 20,
         }
     }
 }
@@ -130,6 +135,9 @@ impl Settings {
         let finite_pos = |v: f64| v.is_finite() && v > 0.0;
         if self.max_iterations == 0 {
             return Err(Error::invalid("settings.max_iterations", "must be at least 1"));
+        }
+        if self.al_inner_iterations == 0 {
+            return Err(Error::invalid("settings.al_inner_iterations", "must be at least 1"));
         }
         if self.max_relative_degree == 0 {
             return Err(Error::invalid("settings.max_relative_degree", "must be at least 1"));
@@ -304,6 +312,9 @@ pub struct IterationLog {
     pub accepted: bool,
     /// Whether the constraints were tightened after this iteration.
     pub tightened: bool,
+    /// Whether this iteration belonged to the augmented-Lagrangian warm-up
+    /// ([`Settings::al_warm_start`]) rather than to the KKT/QP iterations.
+    pub warm_up: bool,
 }
 
 /// Outcome and statistics of a solve. Lives in the solver; `log` is allocated once.
@@ -367,7 +378,7 @@ impl Report {
         let mut s = String::from("iter        cost   violation    gradient    step          mu  active\n");
         for r in &self.log {
             s.push_str(&format!(
-                "{:4} {:.9e} {:.3e} {:.3e} {:7.4} {:.3e} {:6}{}{}\n",
+                "{:4} {:.9e} {:.3e} {:.3e} {:7.4} {:.3e} {:6}{}{}{}\n",
                 r.iteration,
                 r.cost,
                 r.violation,
@@ -381,6 +392,7 @@ impl Report {
                     "  rejected"
                 },
                 if r.tightened { "  tightened" } else { "" },
+                if r.warm_up { "  al" } else { "" },
             ));
         }
         s.push_str(&format!(

@@ -15,7 +15,10 @@
 //!    shrinking trust region `|du| <= Delta` (at most `max_qp_retries` times); then the
 //!    regularisation `mu` is raised; past `mu_max` the status is [`Status::Infeasible`] with the
 //!    knot.
-//! 4. **Tightening** every `n2` iterations: eq. (19) with the gains of step 2, eq. (20) margins.
+//! 4. **Tightening** every `n2` iterations of the KKT/QP phase: eq. (19) with the feedback gains
+//!    of a backward pass whose only rows are the control bounds ([`crate::Gains::ClosedLoop`]; the
+//!    state-constraint rows would make the gains dead-beat, `O(1/dt^r)`, see there), eq. (20)
+//!    margins.
 //!
 //! **Warm-up (design change, [`Settings::al_warm_start`]).** A state constraint can be moved by
 //! one knot's control only a little (`C` is `O(dt^2)` for the point robot and the car), so from a
@@ -23,9 +26,13 @@
 //! starts with augmented-Lagrangian iterations on the same workspace: the constraint rows enter the
 //! cost at their own time (so `V_x` carries them backwards), control bounds stay in the KKT
 //! working set, the forward pass is a plain rollout (no QPs), and the multipliers are updated
-//! between inexact inner solves. Once the violation is below [`Settings::al_switch_violation`]
-//! the iterations above take over with the multipliers as their first estimate; a tightening that
-//! makes the trajectory infeasible re-enters the warm-up.
+//! between inexact inner solves (at most [`Settings::al_inner_iterations`] each). Once the
+//! violation is below [`Settings::al_switch_violation`] the iterations above take over with the
+//! multipliers as their first estimate. A tightening that makes the trajectory infeasible, or a
+//! KKT/QP iteration that finds no acceptable step, re-enters the warm-up with the current
+//! multipliers and a moderate penalty; after such a failure the warm-up runs to its own
+//! convergence. Multipliers and penalty carry over between solves ([`SafeCddpSolver::reset`] is
+//! the cold start), and a warm start that is already feasible skips the warm-up.
 //!
 //! | symbol | field / accessor | equation |
 //! |---|---|---|
@@ -48,7 +55,7 @@ use ddp_core::{CostDerivatives, Error, Matrix, Method, Problem, Result, Terminal
 
 use crate::qp::{QpOutcome, StepQp};
 use crate::settings::{IterationLog, Report, Settings, Status};
-use crate::tightening::{margin, propagate_covariance, Tightening};
+use crate::tightening::{margin, propagate_covariance, Gains, Tightening};
 use crate::Constraint;
 
 /// Where the rows of one constraint sit in a knot's row block.
@@ -123,6 +130,8 @@ pub struct SafeCddpSolver<const NX: usize, const NU: usize> {
     q_uu_r: Vec<Matrix<NU, NU>>,
     k_ff: Vec<Vector<NU>>,
     k_fb: Vec<Matrix<NU, NX>>,
+    /// Gains of the last tightening's covariance propagation (see [`crate::Gains`]).
+    k_prop: Vec<Matrix<NU, NX>>,
     v_x: Vec<Vector<NX>>,
     v_xx: Vec<Matrix<NX, NX>>,
     row_present: Vec<bool>,
@@ -169,6 +178,14 @@ pub struct SafeCddpSolver<const NX: usize, const NU: usize> {
     al_rho: f64,
     al_lambda: Vec<f64>,
     al_prev_violation: f64,
+    /// Accepted warm-up iterations since the last multiplier update.
+    al_inner: usize,
+    /// A KKT/QP iteration of this solve failed (no step accepted, or Clarabel failed) and the
+    /// warm-up took over: it then runs to its own convergence instead of handing over again.
+    kkt_failed: bool,
+    /// No solve has reached the KKT/QP iterations since construction or [`Self::reset`]: the next
+    /// start runs the warm-up even from a feasible guess (which may be far from optimal).
+    cold: bool,
     iteration: usize,
     report: Report,
 }
@@ -242,6 +259,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
             q_uu_r: vec![Matrix::zeros(); cap],
             k_ff: vec![Vector::zeros(); cap],
             k_fb: vec![Matrix::zeros(); cap],
+            k_prop: vec![Matrix::zeros(); cap],
             v_x: vec![Vector::zeros(); cap + 1],
             v_xx: vec![Matrix::zeros(); cap + 1],
             row_present: vec![false; rows],
@@ -284,6 +302,9 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
             al_rho: settings.al_rho_init,
             al_lambda: vec![0.0; rows],
             al_prev_violation: f64::INFINITY,
+            al_inner: 0,
+            kkt_failed: false,
+            cold: true,
             iteration: 0,
             report: Report::new(settings.max_iterations + 1),
         })
@@ -382,14 +403,22 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         self.started = false;
         Ok(())
     }
-    /// Zeroes the initial guess, gains, multipliers and margins (a cold start).
+    /// Zeroes the initial guess, gains, multipliers (the warm-up's too, with its penalty back at
+    /// [`Settings::al_rho_init`]), covariances and margins: a cold start, whose solve begins with
+    /// the warm-up. Everything a solve reads is then as after [`SafeCddpSolver::new`], so solves
+    /// after a reset are reproducible.
     pub fn reset(&mut self) {
         self.us.iter_mut().for_each(|u| *u = Vector::zeros());
         self.k_ff.iter_mut().for_each(|k| *k = Vector::zeros());
         self.k_fb.iter_mut().for_each(|k| *k = Matrix::zeros());
+        self.k_prop.iter_mut().for_each(|k| *k = Matrix::zeros());
+        self.sigma.iter_mut().for_each(|s| *s = Matrix::zeros());
         self.row_lambda.iter_mut().for_each(|l| *l = 0.0);
         self.row_margin.iter_mut().for_each(|m| *m = 0.0);
         self.ws_len.iter_mut().for_each(|w| *w = 0);
+        self.al_lambda.iter_mut().for_each(|l| *l = 0.0);
+        self.al_rho = self.settings.al_rho_init;
+        self.cold = true;
         self.started = false;
     }
     /// Sets the initial guess (length `n`, finite).
@@ -418,10 +447,12 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
             self.xs.copy_within(1..n + 1, 0);
             self.k_ff.copy_within(1..n, 0);
             self.k_fb.copy_within(1..n, 0);
+            self.k_prop.copy_within(1..n, 0);
             self.ws.copy_within(NU..n * NU, 0);
             self.ws_len.copy_within(1..n, 0);
             let m = self.m;
             self.row_lambda.copy_within(m..n * m, 0);
+            self.al_lambda.copy_within(m..n * m, 0);
             self.row_margin.copy_within(m..n * m, 0);
             self.xs[n] = self.xs[n - 1];
         }
@@ -439,6 +470,12 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
     /// Feedback gains `K_k` of the last backward pass, eq. (12).
     pub fn gains(&self) -> &[Matrix<NU, NX>] {
         &self.k_fb[..self.n]
+    }
+    /// The gains `K_k` the last tightening propagated the covariance with (eq. 19): the
+    /// bounds-only backward pass for [`crate::Gains::ClosedLoop`], [`SafeCddpSolver::gains`] for
+    /// [`crate::Gains::ActiveSet`], zero or the fixed gain for the baselines.
+    pub fn propagation_gains(&self) -> &[Matrix<NU, NX>] {
+        &self.k_prop[..self.n]
     }
     /// Feed-forward terms `d_k` of the last backward pass, eq. (12).
     pub fn feedforward(&self) -> &[Vector<NU>] {
@@ -475,6 +512,11 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
     /// [`SafeCddpSolver::start`]).
     pub fn report(&self) -> &Report {
         &self.report
+    }
+    /// QP counters since the last [`SafeCddpSolver::start`] (live: [`Report::qp`] is filled in
+    /// only when [`SafeCddpSolver::solve`] ends).
+    pub fn qp_stats(&self) -> &crate::qp::QpStats {
+        self.qp.stats()
     }
     /// Current cost `J`.
     pub fn cost(&self) -> f64 {
@@ -516,17 +558,20 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         if !self.cost.is_finite() {
             status = Status::NumericalError;
         } else {
-            let mut since_tightening = 0;
-            for iter in 0..self.settings.max_iterations {
+            // Iterations since the last tightening; starts "overdue" so that a solve that begins
+            // in the KKT/QP iterations tightens after its first iteration (Algorithm 1, line 22).
+            let mut since_tightening = usize::MAX / 2;
+            for _ in 0..self.settings.max_iterations {
                 let outcome = self.iterate(problem)?;
                 let mut tightened = false;
+                let mut fresh = false;
                 if let Some(t) = self.tightening {
-                    if iter % t.update_every() == 0 {
+                    since_tightening += 1;
+                    if self.tightening_due(since_tightening, &t) {
                         let changed = self.tighten(problem)?;
                         tightened = changed > self.settings.constraint_tolerance;
+                        fresh = true;
                         since_tightening = 0;
-                    } else {
-                        since_tightening += 1;
                     }
                 }
                 if let Some(last) = self.report.log.last_mut() {
@@ -538,12 +583,12 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
                         break;
                     }
                     IterationOutcome::Converged | IterationOutcome::Accepted { converged: true, .. } => {
-                        if self.tightening.is_none() || (!tightened && since_tightening == 0) {
+                        if self.tightening.is_none() || (fresh && !tightened) {
                             status = Status::Converged;
                             break;
                         }
-                        if !tightened {
-                            // Converged with margins that are one update old: refresh them now.
+                        if !fresh {
+                            // Converged with margins of an older trajectory: refresh them now.
                             let changed = self.tighten(problem)?;
                             since_tightening = 0;
                             if changed <= self.settings.constraint_tolerance {
@@ -559,6 +604,22 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         self.finish(problem, status);
         self.report.solve_time = start.elapsed();
         Ok(&self.report)
+    }
+
+    /// Whether Algorithm 1 tightens now, `since` iterations after the last tightening: every
+    /// `n2` iterations of the KKT/QP phase. Not during the warm-up: its inner solves are inexact
+    /// and its trajectory drifts while the multipliers settle, so margins computed there move the
+    /// target of every inner solve and the warm-up never hands over (the paper likewise solves
+    /// the deterministic problem first and tightens "afterward", §III-D). A warm-up that hands
+    /// over with `since >= n2` tightens at once.
+    pub fn tightening_due(&self, since: usize, tightening: &Tightening<NX, NU>) -> bool {
+        !self.al_phase && since >= tightening.update_every()
+    }
+
+    /// Whether the solver is in its augmented-Lagrangian warm-up ([`Settings::al_warm_start`])
+    /// rather than in the KKT/QP iterations of Xie et al.
+    pub fn in_warm_up(&self) -> bool {
+        self.al_phase
     }
 
     /// Starts a solve: projects the controls onto the bounds, rolls them out from `x0`, evaluates
@@ -587,10 +648,19 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         }
         cost += problem.terminal().value(&self.xs[n]);
         self.cost = cost;
-        self.al_phase = self.settings.al_warm_start && self.bound_offset > 0;
-        self.al_rho = self.settings.al_rho_init;
-        self.al_lambda.iter_mut().for_each(|l| *l = 0.0);
+        // The warm-up runs after a cold start and whenever the initial trajectory violates a row;
+        // a warm start that is already feasible (an MPC step, a re-solve) goes straight to the
+        // KKT/QP iterations. Multipliers and penalty carry over from the previous solve (see
+        // `reset`), so a warm start does not first drift into the obstacles under a weak penalty.
+        self.al_phase = false;
+        let (_, max) = self.violation(false);
+        self.al_phase = self.settings.al_warm_start
+            && self.bound_offset > 0
+            && (self.cold || max > self.settings.al_switch_violation);
+        self.al_rho = self.al_rho.max(self.settings.al_rho_init);
         self.al_prev_violation = f64::INFINITY;
+        self.al_inner = 0;
+        self.kkt_failed = false;
         let (sum, max) = self.violation(false);
         self.violation_sum = sum;
         self.violation_max = max;
@@ -613,6 +683,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
             active: 0,
             accepted: true,
             tightened: false,
+            warm_up: self.al_phase,
         });
         Ok(())
     }
@@ -648,7 +719,9 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         if self.al_phase && self.gradient < s.gradient_tolerance {
             // The inner problem is solved: update the multipliers.
             self.log(iteration, 0.0, false);
-            self.update_multipliers(problem);
+            if self.update_multipliers(problem, true) {
+                return Ok(IterationOutcome::Converged);
+            }
             return Ok(IterationOutcome::Accepted {
                 step: 0.0,
                 converged: false,
@@ -726,13 +799,11 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
                 };
                 self.trust = (self.trust / s.trust_shrink).min(s.trust_region);
                 if self.al_phase {
-                    if change.abs() < s.al_inner_tolerance * (1.0 + self.merit.abs()) {
-                        self.update_multipliers(problem);
-                    }
-                    return Ok(IterationOutcome::Accepted {
-                        step: alpha,
-                        converged: false,
-                    });
+                    self.al_inner += 1;
+                    let inner_done = change.abs() < s.al_inner_tolerance * (1.0 + self.merit.abs());
+                    let converged = (inner_done || self.al_inner >= s.al_inner_iterations)
+                        && self.update_multipliers(problem, inner_done);
+                    return Ok(IterationOutcome::Accepted { step: alpha, converged });
                 }
                 let converged = change.abs() < s.cost_tolerance * (1.0 + self.cost.abs())
                     && self.violation_max <= s.constraint_tolerance;
@@ -741,7 +812,19 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
             None => {
                 self.log(iteration, 0.0, false);
                 if self.al_phase {
-                    self.update_multipliers(problem);
+                    if self.update_multipliers(problem, true) {
+                        return Ok(IterationOutcome::Converged);
+                    }
+                } else if s.al_warm_start && self.bound_offset > 0 {
+                    // The KKT/QP step failed: typically a constraint row that the backward pass
+                    // left out (pruned, or dependent on a control bound at a tangency) binds in
+                    // a forward QP, whose control can move a relative-degree-r row only by
+                    // O(dt^r), so the QP answers with a huge du. The warm-up's smooth penalty
+                    // model has no such jumps: it takes over from here, with the multipliers
+                    // of this backward pass, and runs to its own convergence.
+                    self.enter_warm_up();
+                    self.kkt_failed = true;
+                    return Ok(IterationOutcome::Rejected);
                 }
                 if let Some(Status::QpFailed { knot }) = failure {
                     return Ok(IterationOutcome::Failed(Status::QpFailed { knot }));
@@ -767,11 +850,17 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
             self.linearize_now(problem);
         }
         let n = self.n;
+        match t.gains() {
+            Gains::ClosedLoop => self.bounds_only_gains(problem),
+            Gains::ActiveSet => self.k_prop[..n].copy_from_slice(&self.k_fb[..n]),
+            Gains::OpenLoop => self.k_prop[..n].iter_mut().for_each(|k| *k = Matrix::zeros()),
+            Gains::Fixed(g) => self.k_prop[..n].iter_mut().for_each(|k| *k = *g),
+        }
         propagate_covariance(
             &self.fx[..n],
             &self.fu[..n],
-            t.gains(),
-            &self.k_fb[..n],
+            &Gains::ClosedLoop,
+            &self.k_prop[..n],
             t.sigma_0(),
             t.sigma_w(),
             &mut self.sigma[..=n],
@@ -780,11 +869,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         let zero_u = Vector::<NU>::zeros();
         let mut change = 0.0f64;
         for k in 0..n {
-            let gain = match t.gains() {
-                crate::tightening::Gains::ClosedLoop => self.k_fb[k],
-                crate::tightening::Gains::OpenLoop => Matrix::zeros(),
-                crate::tightening::Gains::Fixed(g) => *g,
-            };
+            let gain = self.k_prop[k];
             for (j, slot) in self.slots.iter().enumerate() {
                 let t_row = if slot.mixed { k } else { k + slot.degree };
                 let base = k * self.m + slot.offset;
@@ -816,13 +901,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         // move a state constraint far), starting from the current multipliers.
         let (_, max) = self.violation(false);
         if !self.al_phase && self.settings.al_warm_start && max > self.settings.al_switch_violation {
-            self.al_phase = true;
-            self.al_rho = self.settings.al_rho_init;
-            self.al_prev_violation = f64::INFINITY;
-            self.al_lambda.copy_from_slice(&self.row_lambda);
-            self.mu = self.settings.mu_init;
-            self.dmu = 1.0;
-            self.need_linearize = true;
+            self.enter_warm_up();
         }
         let (sum, max) = self.violation(false);
         self.violation_sum = sum;
@@ -882,6 +961,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
                 active: self.active,
                 accepted,
                 tightened: false,
+                warm_up: self.al_phase,
             });
         }
     }
@@ -1001,10 +1081,101 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
 
     /// First-order multiplier update of the warm-up, `lambda <- max(0, lambda + rho g~)`, and the
     /// penalty update; switches to the KKT phase once the violation is small.
-    fn update_multipliers(&mut self, problem: &Problem<NX, NU>) {
+    /// The gains of [`Gains::ClosedLoop`] into `k_prop`: a Gauss-Newton Riccati recursion of the
+    /// cost alone (no constraint rows, no warm-up penalty) along the current linearisation, with
+    /// the controls that sit at a bound clamped (zero rows of `K`, as in box-DDP). Evaluates the
+    /// cost derivatives again (the workspace's may hold the warm-up's penalty terms).
+    fn bounds_only_gains(&mut self, problem: &Problem<NX, NU>) {
+        let n = self.n;
+        let mut terminal = TerminalDerivatives::<NX>::default();
+        problem.terminal().add_derivatives(&self.xs[n], 1.0, &mut terminal);
+        let mut v_xx = terminal.lxx;
+        let bounds = problem.bounds();
+        for k in (0..n).rev() {
+            let knot = &problem.knots()[k];
+            let mut l = CostDerivatives::<NX, NU>::default();
+            knot.cost.add_derivatives(&self.xs[k], &self.us[k], 1.0, &mut l);
+            let (fx, fu) = (&self.fx[k], &self.fu[k]);
+            let v_fx = v_xx * fx;
+            let q_xx = l.lxx + fx.tr_mul(&v_fx);
+            let mut q_uu = l.luu + fu.tr_mul(&(v_xx * fu));
+            let mut q_ux = l.lux + fu.tr_mul(&v_fx);
+            q_uu = 0.5 * (q_uu + q_uu.transpose());
+            let q_uu_full = q_uu;
+            let q_ux_full = q_ux;
+            if let Some(b) = bounds {
+                let u = &self.us[k];
+                for i in 0..NU {
+                    let tol = 1e-9 * (1.0 + u[i].abs());
+                    if u[i] >= b.upper[i] - tol || u[i] <= b.lower[i] + tol {
+                        // Clamped: no feedback through this control.
+                        for j in 0..NU {
+                            q_uu[(i, j)] = 0.0;
+                            q_uu[(j, i)] = 0.0;
+                        }
+                        q_uu[(i, i)] = 1.0;
+                        q_ux.set_row(i, &Vector::<NX>::zeros().transpose());
+                    }
+                }
+            }
+            let mut reg = 0.0;
+            let gain = loop {
+                let mut h = q_uu;
+                for i in 0..NU {
+                    h[(i, i)] += reg;
+                }
+                if let Some(c) = h.cholesky() {
+                    break -c.solve(&q_ux);
+                }
+                reg = if reg == 0.0 {
+                    1e-9 * (1.0 + q_uu.amax())
+                } else {
+                    reg * 10.0
+                };
+                if !reg.is_finite() || reg > 1e12 * (1.0 + q_uu.amax()) {
+                    break Matrix::<NU, NX>::zeros();
+                }
+            };
+            let kt_quu = gain.transpose() * q_uu_full;
+            let v = q_xx + kt_quu * gain + gain.tr_mul(&q_ux_full) + q_ux_full.tr_mul(&gain);
+            v_xx = 0.5 * (v + v.transpose());
+            self.k_prop[k] = gain;
+        }
+    }
+
+    /// (Re-)enters the warm-up from the KKT/QP iterations, with their multipliers as the first
+    /// estimate and a moderate penalty (a penalty left at `al_rho_max` makes the inner problems
+    /// stiff, and good multipliers do not need it).
+    fn enter_warm_up(&mut self) {
+        let s = &self.settings;
+        self.al_phase = true;
+        self.al_prev_violation = f64::INFINITY;
+        self.al_inner = 0;
+        self.al_rho = self
+            .al_rho
+            .clamp(s.al_rho_init, s.al_rho_init * s.al_rho_factor * s.al_rho_factor);
+        self.al_lambda.copy_from_slice(&self.row_lambda);
+        self.mu = s.mu_init;
+        self.dmu = 1.0;
+        self.trust = s.trust_region;
+        self.need_linearize = true;
+        let (sum, max) = self.violation(false);
+        self.violation_sum = sum;
+        self.violation_max = max;
+        self.merit = self.cost + sum;
+    }
+
+    /// First-order multiplier update of the warm-up, `lambda <- max(0, lambda + rho g~)`, and the
+    /// penalty update; switches to the KKT phase once the violation is small. `inner_done`: the
+    /// inner solve converged (rather than hitting `al_inner_iterations`). Returns whether the
+    /// warm-up itself has converged, which counts only after a failed KKT/QP iteration in this
+    /// solve: the inner solve converged on a trajectory within `constraint_tolerance`.
+    fn update_multipliers(&mut self, problem: &Problem<NX, NU>, inner_done: bool) -> bool {
         if self.need_linearize {
             self.linearize_now(problem);
         }
+        let converged = self.kkt_failed && inner_done && self.violation_max <= self.settings.constraint_tolerance;
+        self.al_inner = 0;
         let previous_max = self.al_prev_violation;
         self.al_prev_violation = self.violation_max;
         let rho = self.al_rho;
@@ -1023,9 +1194,10 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         if self.violation_max > 0.25 * previous_max {
             self.al_rho = (self.al_rho * self.settings.al_rho_factor).min(self.settings.al_rho_max);
         }
-        if self.violation_max <= self.settings.al_switch_violation {
+        if self.violation_max <= self.settings.al_switch_violation && !self.kkt_failed {
             // Hand over to Xie's method with the multipliers as the first estimate.
             self.al_phase = false;
+            self.cold = false;
             self.row_lambda.copy_from_slice(&self.al_lambda);
             self.mu = self.settings.mu_init;
             self.dmu = 1.0;
@@ -1035,6 +1207,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         self.violation_max = max;
         self.merit = self.cost + term;
         self.need_linearize = true;
+        converged
     }
 
     fn linearize_now(&mut self, problem: &Problem<NX, NU>) {

@@ -7,7 +7,8 @@
 //!
 //! (The paper prints eq. (19) with the transposes swapped; the form above is the covariance of
 //! `dx+ = (f_x + f_u K) dx + w`.) `K_k` are the gains of the constrained backward pass
-//! ([`Gains::ClosedLoop`], Safe-CDDP), zero ([`Gains::OpenLoop`]) or one fixed gain
+//! ([`Gains::ClosedLoop`], Safe-CDDP: the backward pass with the control bounds as its only
+//! rows; [`Gains::ActiveSet`]: with the state-constraint rows of the working set too), zero ([`Gains::OpenLoop`]) or one fixed gain
 //! ([`Gains::Fixed`], e.g. [`lqr_gain`] at the goal, as cautious MPC). `sigma_p^2` is the
 //! variance a constraint reports for its own parameters ([`crate::Constraint::parameter_variance`],
 //! e.g. a tracked obstacle). For a mixed row the closed-loop control `u = u_bar + K dx` enters
@@ -32,8 +33,19 @@ use crate::quantile::normal_quantile;
 /// Which feedback gains the covariance propagation uses.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Gains<const NX: usize, const NU: usize> {
-    /// The gains `K_k` of the last backward pass (Safe-CDDP).
+    /// Safe-CDDP (the default): the feedback gains `K_k` of the DDP backward pass at the current
+    /// trajectory, eqs. (10)-(12) with the control bounds as the only rows of the working set (a
+    /// control at its bound gives no feedback). The state-constraint rows are left out on
+    /// purpose: a row of relative degree `r` in the working set makes eq. (12) a dead-beat gain
+    /// of size `O(1/dt^r)` on the very quantity that row's margin protects, so an active row's
+    /// margin collapses, the row turns inactive, its margin jumps back, and the solve oscillates
+    /// between the two (it never converged on the car). Such gains also assume controls far
+    /// beyond the bounds. [`Gains::ActiveSet`] keeps the literal reading.
     ClosedLoop,
+    /// The gains of the last constrained backward pass, state-constraint rows of its working set
+    /// included (eq. 12 literally). For comparison: with relative-degree-2 rows (the car) the
+    /// tightening oscillates (see [`Gains::ClosedLoop`]).
+    ActiveSet,
     /// `K = 0`: open-loop propagation (the most conservative baseline).
     OpenLoop,
     /// One fixed gain at every knot (e.g. LQR at the goal; cautious MPC).
@@ -119,7 +131,8 @@ impl<const NX: usize, const NU: usize> Tightening<NX, NU> {
 
 /// Eq. (19) along a horizon of `fx.len()` knots: writes `sigma[0] = sigma_0` and
 /// `sigma[k+1] = A_k sigma[k] A_k^T + sigma_w` with `A_k = fx[k] + fu[k] K_k`, where `K_k` is
-/// `closed_loop[k]` for [`Gains::ClosedLoop`]. `sigma` needs `fx.len() + 1` entries.
+/// `closed_loop[k]` for [`Gains::ClosedLoop`] and [`Gains::ActiveSet`] (the caller's per-knot
+/// gains). `sigma` needs `fx.len() + 1` entries.
 pub fn propagate_covariance<const NX: usize, const NU: usize>(
     fx: &[Matrix<NX, NX>],
     fu: &[Matrix<NX, NU>],
@@ -133,7 +146,7 @@ pub fn propagate_covariance<const NX: usize, const NU: usize>(
     sigma[0] = *sigma_0;
     for k in 0..n {
         let a = match gains {
-            Gains::ClosedLoop => fx[k] + fu[k] * closed_loop[k],
+            Gains::ClosedLoop | Gains::ActiveSet => fx[k] + fu[k] * closed_loop[k],
             Gains::OpenLoop => fx[k],
             Gains::Fixed(gain) => fx[k] + fu[k] * gain,
         };

@@ -4,7 +4,9 @@ use std::sync::Arc;
 
 use ddp_core::{Matrix, Vector};
 use nalgebra::Matrix2;
-use safe_cddp::constraints::{Circle, ControlBox, ConvexPolygon, FiniteDiffConstraint, MovingCircle, StateBox};
+use safe_cddp::constraints::{
+    Circle, ControlBox, ConvexPolygon, Cylinder, FiniteDiffConstraint, MovingCircle, StateBox,
+};
 use safe_cddp::{check_constraint_derivatives, Constraint};
 
 fn all_constraints() -> Vec<(&'static str, Arc<dyn Constraint<4, 2>>, bool)> {
@@ -41,6 +43,12 @@ fn all_constraints() -> Vec<(&'static str, Arc<dyn Constraint<4, 2>>, bool)> {
         (
             "convex polygon",
             Arc::new(ConvexPolygon::new(&[[0.5, 0.0], [1.5, 0.2], [1.2, 1.0], [0.4, 0.8]], 0.1, [0, 1]).unwrap()),
+            false,
+        ),
+        (
+            // (px, py, theta) stand in for a 3-D position: the Jacobian check is generic.
+            "cylinder",
+            Arc::new(Cylinder::new([1.0, 0.5], 0.4, 0.3, 0.05, [0, 1, 2]).unwrap()),
             false,
         ),
         (

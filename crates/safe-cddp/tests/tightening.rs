@@ -32,7 +32,7 @@ fn closed_loop_covariance_matches_monte_carlo() {
     let model = &problem.knots()[0].dynamics;
     let (mut fx, mut fu) = (Matrix::<4, 4>::zeros(), Matrix::<4, 2>::zeros());
     model.jacobians(&Vector::zeros(), &Vector::zeros(), &mut fx, &mut fu);
-    let gains = solver.gains();
+    let gains = solver.propagation_gains();
     let n = gains.len();
     let chol = sigma_w().cholesky().unwrap().l();
     let mut rng = ChaCha8Rng::seed_from_u64(3);
@@ -71,7 +71,7 @@ fn open_loop_covariance_grows_faster_than_closed_loop() {
         &fx,
         &fu,
         &Gains::ClosedLoop,
-        solver.gains(),
+        solver.propagation_gains(),
         &Matrix::zeros(),
         &sigma_w(),
         &mut closed,
@@ -175,5 +175,81 @@ proptest! {
         if g.norm() > 1e-6 {
             prop_assert!(m2 > m1);
         }
+    }
+}
+
+/// The car of the iteration benchmark: N = 90, goal (3, 0) at rest, two discs (squared form).
+fn car_n90() -> (ddp_core::Problem<4, 2>, Vec<Arc<dyn Constraint<4, 2>>>) {
+    use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
+    use ddp_core::models::Car;
+    use ddp_core::{ControlBounds, Problem};
+    let running = Arc::new(QuadraticCost::diagonal(&[0.0; 4], &[0.1, 0.1], Vector::zeros(), Vector::zeros()).unwrap());
+    let terminal = Arc::new(
+        QuadraticTerminal::diagonal(&[100.0, 100.0, 10.0, 10.0], Vector::<4>::new(3.0, 0.0, 0.0, 0.0)).unwrap(),
+    );
+    let problem = Problem::new(
+        Vector::zeros(),
+        Arc::new(Car::new(0.05).unwrap()),
+        running,
+        terminal,
+        90,
+    )
+    .unwrap()
+    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap());
+    let obstacles: Vec<Arc<dyn Constraint<4, 2>>> = vec![
+        Arc::new(Circle::squared([1.0, 0.1], 0.35, [0, 1]).unwrap()),
+        Arc::new(Circle::squared([2.0, -0.1], 0.35, [0, 1]).unwrap()),
+    ];
+    (problem, obstacles)
+}
+
+#[test]
+fn tightened_car_converges_feasibly() {
+    // Regression: with beta = 0.99 the car's solve used to oscillate to max_iterations and end
+    // infeasible. Causes: each tightening re-entered the warm-up at the initial penalty (the
+    // trajectory drifted into the discs), a failed KKT/QP step ended the solve, and the gains of
+    // active relative-degree-2 rows (dead-beat, O(1/dt^2)) made each row's margin depend on
+    // whether the row itself was active.
+    // As the paper does (§III-D): solve the deterministic problem, then tighten and solve again
+    // from there (the solver keeps its multipliers and penalty: a warm start).
+    // The augmented-Lagrangian phases converge linearly: give the solve a budget of 600.
+    let (problem, obstacles) = car_n90();
+    let settings = Settings {
+        max_iterations: 600,
+        ..Settings::default()
+    };
+    for sigma in [1e-7, 1e-6, 1e-5] {
+        let mut tightened = SafeCddpSolver::new(&problem, obstacles.clone(), settings).unwrap();
+        let deterministic = tightened.solve(&problem).unwrap().clone();
+        assert_eq!(deterministic.status, safe_cddp::Status::Converged);
+        let sigma_w = Matrix::<4, 4>::identity() * sigma;
+        tightened.set_tightening(Some(Tightening::new(0.99, sigma_w).unwrap()));
+        let r = tightened.solve(&problem).unwrap().clone();
+        assert_eq!(
+            r.status,
+            safe_cddp::Status::Converged,
+            "sigma_w = {sigma} I:\n{}",
+            r.table()
+        );
+        assert!(
+            r.max_violation_tightened <= 1e-8,
+            "sigma_w = {sigma} I: {}",
+            r.max_violation_tightened
+        );
+        assert_eq!(r.max_violation, 0.0, "the original constraints hold with room to spare");
+        // The margins are positive along the horizon, and a safer plan costs more.
+        assert!((0..tightened.horizon() - 2).all(|k| tightened.margins(k)[0] > 0.0));
+        assert!(r.cost > deterministic.cost, "sigma_w = {sigma} I");
+        eprintln!(
+            "sigma_w = {sigma} I: converged in {} iterations, cost {:.6} (deterministic {:.6})",
+            r.iterations, r.cost, deterministic.cost
+        );
+        // Safe-CDDP's gains are those of the bounds-only backward pass: finite and modest.
+        let worst = tightened
+            .propagation_gains()
+            .iter()
+            .map(|k| k.norm())
+            .fold(0.0, f64::max);
+        assert!(worst.is_finite() && worst < 1e3, "|K| up to {worst}");
     }
 }

@@ -23,22 +23,31 @@ __all__ = [
     "BEZIER_DEFAULT_ACCURACY",
     "Bezier",
     "Car",
+    "Circle",
     "CirclePenalty",
+    "Constraint",
+    "ControlBox",
     "ControlSquared",
+    "ConvexPolygon",
     "Cost",
     "CostSum",
+    "Cylinder",
     "DdpError",
     "DifferentialDrive",
     "DoubleIntegrator2D",
     "Dynamics",
+    "Episode",
     "InvalidInputError",
     "LinearDynamics",
+    "Mpc",
     "NotFiniteError",
     "ObstacleHinge",
     "Problem",
     "QuadraticCost",
     "QuadraticTerminal",
     "Quadrotor",
+    "SafeCddpSolver",
+    "SafeSolution",
     "ShapeError",
     "SigmoidProfile",
     "SmoothDistance",
@@ -46,7 +55,9 @@ __all__ = [
     "Solver",
     "Spline",
     "SplineOptimizeResult",
+    "StateBox",
     "TerminalSum",
+    "Tightening",
     "Trajectory",
     "TrajectorySamples",
     "Unicycle",
@@ -901,3 +912,258 @@ def optimize_spline(
     (C1: all of them; C2: the end ones), minimising :func:`spline_cost` from Catmull-Rom (C1)
     or the natural spline (C2). The GIL is released."""
 
+# --------------------------------------------------------------------------------------------
+# Safe-CDDP (paper 003): constraints, the constrained solver, chance-constraint tightening, MPC
+# --------------------------------------------------------------------------------------------
+
+@disjoint_base
+class Constraint:
+    """Base class of the Safe-CDDP constraints ``g(x, u) <= 0``. Not constructible itself.
+
+    Constraints are dimension-agnostic specifications, checked against the problem's
+    ``(nx, nu)`` when a :class:`SafeCddpSolver` or :class:`Mpc` is built. State constraints
+    (obstacles, state boxes) are imposed on ``x_1 .. x_N`` (the solver moves each to the knot
+    whose control can change it); a :class:`ControlBox` constrains ``(x_k, u_k)``.
+    """
+
+@final
+class Circle(Constraint):
+    """A circular obstacle on ``p = (x[i0], x[i1])``: ``r^2 - |p - c|^2 <= 0``
+    (``form="squared"``, as the benchmark problems) or ``r - |p - c| <= 0``
+    (``form="distance"``: the tightening margins are then in metres). ``indices`` defaults to
+    ``(0, 1)``."""
+
+    def __new__(
+        cls,
+        center: _ArrayLike,
+        radius: float,
+        indices: tuple[int, int] = ...,
+        form: str = "squared",
+    ) -> Self: ...
+    @property
+    def center(self) -> tuple[float, float]:
+        """The centre ``(x, y)``."""
+    @property
+    def radius(self) -> float:
+        """The radius."""
+
+@final
+class ConvexPolygon(Constraint):
+    """A convex polygonal obstacle: the convex hull of ``vertices`` (shape ``(n, 2)``, n >= 3)
+    inflated by ``margin``; ``margin - sd(p) <= 0`` with the signed distance ``sd``. ``indices``
+    defaults to ``(0, 1)``."""
+
+    def __new__(
+        cls, vertices: _ArrayLike, margin: float = 0.0, indices: tuple[int, int] = ...
+    ) -> Self: ...
+
+@final
+class Cylinder(Constraint):
+    """A vertical cylinder of ``radius`` around ``center`` standing up to ``height`` on
+    ``(x[i0], x[i1], x[i2])`` (z up); a robot may pass beside or over it. The rim is smoothed
+    over ``band`` metres. ``indices`` defaults to ``(0, 1, 2)``."""
+
+    def __new__(
+        cls,
+        center: _ArrayLike,
+        radius: float,
+        height: float,
+        band: float = 0.02,
+        indices: tuple[int, int, int] = ...,
+    ) -> Self: ...
+
+@final
+class StateBox(Constraint):
+    """State limits ``lower <= x <= upper`` (shape ``(nx,)`` each; ``+-inf`` for none)."""
+
+    def __new__(cls, lower: _ArrayLike, upper: _ArrayLike) -> Self: ...
+
+@final
+class ControlBox(Constraint):
+    """Control limits ``lower <= u <= upper`` as constraints (tightened by the closed-loop control
+    spread, unlike the problem's hard ``u_min``/``u_max``), shape ``(nu,)`` each."""
+
+    def __new__(cls, lower: _ArrayLike, upper: _ArrayLike) -> Self: ...
+
+@final
+class Tightening:
+    """Chance-constraint tightening (Safe-CDDP eqs. 19-20)::
+
+        Sigma_{k+1} = (f_x + f_u K_k) Sigma_k (f_x + f_u K_k)^T + sigma_w
+        g~ = g + phi^{-1}(beta) sqrt(g_x^T Sigma g_x)
+
+    ``beta`` in (0, 1) (0.5: no margin); ``sigma_w`` the process noise ``(nx, nx)``, symmetric
+    PSD; ``gains``: ``"closed_loop"`` (default, Safe-CDDP: the backward pass's feedback with the
+    control bounds as its only constraint rows), ``"active_set"`` (eq. 12 with the
+    state-constraint rows too; oscillates on relative-degree-2 robots), ``"open_loop"``
+    (``K = 0``) or a fixed gain ``(nu, nx)`` (cautious MPC); ``update_every``: ``n2``;
+    ``sigma_0``: the initial covariance (default zero).
+    """
+
+    def __new__(
+        cls,
+        beta: float,
+        sigma_w: _ArrayLike,
+        gains: Union[str, _ArrayLike, None] = None,
+        update_every: int = 5,
+        sigma_0: Optional[_ArrayLike] = None,
+    ) -> Self: ...
+    @property
+    def beta(self) -> float:
+        """``beta``."""
+    @property
+    def quantile(self) -> float:
+        """``phi^{-1}(beta)``, the standard-normal quantile."""
+    @property
+    def update_every(self) -> int:
+        """``n2``: solver iterations between tightenings."""
+
+@final
+class SafeCddpSolver:
+    """Safe-CDDP: constrained DDP (Xie et al. 2017: KKT backward pass over the active rows,
+    per-step QPs in the forward pass) after an augmented-Lagrangian warm-up, with the
+    chance-constraint margins of a :class:`Tightening` updated every ``n2`` iterations.
+
+    ``constraints`` is a sequence of :class:`Constraint`; ``method`` ``"ilqr"`` or ``"ddp"``;
+    ``qp_method`` ``"fast"`` (unconstrained / active-set / Clarabel) or ``"clarabel"``;
+    ``warm_up`` enables the augmented-Lagrangian warm-up. The workspace is allocated once;
+    :meth:`solve` releases the GIL.
+    """
+
+    def __new__(
+        cls,
+        problem: Problem,
+        constraints: Sequence[Constraint],
+        tightening: Optional[Tightening] = None,
+        method: str = "ilqr",
+        max_iterations: int = 200,
+        constraint_tolerance: float = 1e-8,
+        qp_method: str = "fast",
+        warm_up: bool = True,
+    ) -> Self: ...
+    def solve(self, us0: Optional[_ArrayLike] = None, warm_start: bool = False) -> SafeSolution:
+        """Solves from ``us0`` (shape ``(n, nu)``), the last controls (``warm_start``) or zeros."""
+    def tighten(self) -> float:
+        """Tightens at the current trajectory (eqs. 19-20); returns the largest margin change."""
+    def shift(self) -> None:
+        """Receding horizon: drops knot 0 of the solution (controls, gains, multipliers, margins)."""
+    def reset(self) -> None:
+        """A cold start: zeros the initial guess, gains, multipliers and margins."""
+    def set_horizon(self, n: int) -> None:
+        """Shortens (or restores) the active horizon ``1 <= n <= N``."""
+    @property
+    def horizon(self) -> int:
+        """The active horizon ``n``."""
+    @property
+    def nx(self) -> int:
+        """Number of states."""
+    @property
+    def nu(self) -> int:
+        """Number of controls."""
+
+@final
+class SafeSolution:
+    """The result of :meth:`SafeCddpSolver.solve` (``n`` is the active horizon)."""
+
+    @property
+    def xs(self) -> _F64Array:
+        """States, shape ``(n+1, nx)``."""
+    @property
+    def us(self) -> _F64Array:
+        """Controls, shape ``(n, nu)``."""
+    @property
+    def K(self) -> _F64Array:
+        """Feedback gains of the last backward pass (eq. 12), shape ``(n, nu, nx)``."""
+    @property
+    def k(self) -> _F64Array:
+        """Feed-forward terms (eq. 12), shape ``(n, nu)``."""
+    @property
+    def propagation_gains(self) -> _F64Array:
+        """Gains of the last covariance propagation (eq. 19), shape ``(n, nu, nx)``."""
+    @property
+    def covariances(self) -> _F64Array:
+        """``Sigma_0 .. Sigma_n`` of the last tightening (eq. 19), shape ``(n+1, nx, nx)``."""
+    @property
+    def margins(self) -> _F64Array:
+        """Margins (eq. 20) of each knot's rows, shape ``(n, rows)``: the constraints' rows in
+        order, then two per control bound."""
+    @property
+    def status(self) -> str:
+        """``"converged"``, ``"max_iterations"``, ``"regularization_limit"``,
+        ``"line_search_failed"``, ``"infeasible"``, ``"qp_failed"`` or ``"numerical_error"``."""
+    @property
+    def converged(self) -> bool:
+        """Whether :attr:`status` is ``"converged"``."""
+    @property
+    def iterations(self) -> int:
+        """Accepted steps."""
+    @property
+    def cost(self) -> float:
+        """Final cost."""
+    @property
+    def max_violation(self) -> float:
+        """Largest violation of an original (untightened) constraint."""
+    @property
+    def max_violation_tightened(self) -> float:
+        """Largest violation of a tightened row."""
+    @property
+    def tightenings(self) -> int:
+        """Tightenings performed."""
+    @property
+    def solve_time(self) -> float:
+        """Wall time of the solve inside Rust (s)."""
+    def table(self) -> str:
+        """The iteration table (no timings, so it is deterministic)."""
+
+@final
+class Mpc:
+    """Shrinking-horizon MPC with Safe-CDDP (Algorithm 1) under seeded Gaussian process noise.
+
+    Per step: ``iterations`` (``n1``) solver iterations with a tightening every ``n2``; the
+    first control is applied to the true state ``x+ = f(x, u0) + w``, ``w ~ N(0, sigma_w)``;
+    the trajectory is shifted and the horizon shortened. An episode ends in the goal region
+    (``goal_radius`` around ``goal`` on ``goal_indices``) or when the horizon runs out.
+    Collisions are steps whose true state violates an original state constraint. Uses a copy of
+    the problem taken at construction. ``goal_indices`` defaults to ``[0, 1]`` and
+    ``position_indices`` (the planar position) to ``(0, 1)``.
+    """
+
+    def __new__(
+        cls,
+        problem: Problem,
+        constraints: Sequence[Constraint],
+        sigma_w: _ArrayLike,
+        goal: _ArrayLike,
+        tightening: Optional[Tightening] = None,
+        goal_indices: Sequence[int] = ...,
+        goal_radius: float = 0.1,
+        iterations: int = 10,
+        initial_iterations: int = 50,
+        position_indices: tuple[int, int] = ...,
+        max_iterations: int = 400,
+    ) -> Self: ...
+    def run_episode(self, seed: int) -> Episode:
+        """One episode from the problem's ``x0`` with the noise of ``seed`` (deterministic)."""
+
+@final
+class Episode:
+    """One MPC episode."""
+
+    @property
+    def success(self) -> bool:
+        """The goal region was reached."""
+    @property
+    def steps(self) -> int:
+        """MPC steps applied."""
+    @property
+    def collisions(self) -> int:
+        """Steps whose true state violated an original constraint."""
+    @property
+    def infeasible_steps(self) -> int:
+        """Steps at which the solver reported an infeasible QP or trajectory."""
+    @property
+    def xs(self) -> _F64Array:
+        """True states, shape ``(steps+1, nx)``."""
+    @property
+    def us(self) -> _F64Array:
+        """Applied controls, shape ``(steps, nu)``."""

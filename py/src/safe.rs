@@ -1,0 +1,1133 @@
+//! Safe-CDDP in Python (crate `safe-cddp`): constraints, the constrained solver with
+//! chance-constraint tightening, and the shrinking-horizon MPC loop of Algorithm 1.
+//!
+//! | Python | Rust |
+//! |---|---|
+//! | `Constraint`, `Circle`, `ConvexPolygon`, `Cylinder`, `StateBox`, `ControlBox` | `safe_cddp::constraints` |
+//! | `Tightening` | `safe_cddp::Tightening` (eqs. 19-20) |
+//! | `SafeCddpSolver`, `SafeSolution` | `safe_cddp::SafeCddpSolver`, `safe_cddp::Report` |
+//! | `Mpc`, `Episode` | `safe_cddp::mpc::Mpc`, `safe_cddp::mpc::Episode` |
+//!
+//! Constraints are dimension-agnostic specifications (like the costs), checked against the
+//! problem's `(nx, nu)` when a solver is built. Solves and episodes release the GIL.
+
+use std::sync::{Arc, RwLock};
+
+use ddp_core::{Matrix, Method, Vector};
+use pyo3::prelude::*;
+use safe_cddp::constraints::{Circle as CoreCircle, ControlBox as CoreControlBox, ConvexPolygon as CorePolygon};
+use safe_cddp::constraints::{Cylinder as CoreCylinder, StateBox as CoreStateBox};
+use safe_cddp::mpc::{Mpc as CoreMpc, MpcSettings};
+use safe_cddp::qp::QpMethod;
+use safe_cddp::{
+    Constraint as CoreConstraint, Gains, Report, SafeCddpSolver as CoreSolver, Settings, Tightening as CoreTightening,
+};
+
+use crate::convert::{finite_arr, row_major, rows_to_numpy, shape_str, stack_to_numpy, Arr};
+use crate::dims::{internal_mismatch, AnyProblem, Dims, Pair};
+use crate::errors::{invalid, shape, CoreResult};
+use crate::models::type_name;
+use crate::problem::{controls, Problem};
+
+// ------------------------------------------------------------------------------------------------
+// Constraints
+
+/// A constraint, independent of the dimensions until a solver is built.
+#[derive(Debug, Clone, PartialEq)]
+enum Spec {
+    Circle {
+        center: [f64; 2],
+        radius: f64,
+        indices: [usize; 2],
+        distance: bool,
+    },
+    Polygon {
+        vertices: Vec<[f64; 2]>,
+        margin: f64,
+        indices: [usize; 2],
+    },
+    Cylinder {
+        center: [f64; 2],
+        radius: f64,
+        height: f64,
+        band: f64,
+        indices: [usize; 3],
+    },
+    StateBox {
+        lower: Vec<f64>,
+        upper: Vec<f64>,
+    },
+    ControlBox {
+        lower: Vec<f64>,
+        upper: Vec<f64>,
+    },
+}
+
+fn bound_vector<const N: usize>(v: &[f64], field: &str) -> CoreResult<Vector<N>> {
+    if v.len() != N {
+        return Err(shape(field, format!("({},)", v.len()), format!("({N},)")));
+    }
+    Ok(Vector::<N>::from_row_slice(v))
+}
+
+impl Spec {
+    /// The typed constraint for `(NX, NU)`; errors name `field`.
+    fn build<const NX: usize, const NU: usize>(&self, field: &str) -> CoreResult<Arc<dyn CoreConstraint<NX, NU>>> {
+        Ok(match self {
+            Spec::Circle {
+                center,
+                radius,
+                indices,
+                distance,
+            } => {
+                check_index::<NX>(indices, field)?;
+                if *distance {
+                    Arc::new(CoreCircle::<NX>::distance(*center, *radius, *indices)?)
+                } else {
+                    Arc::new(CoreCircle::<NX>::squared(*center, *radius, *indices)?)
+                }
+            }
+            Spec::Polygon {
+                vertices,
+                margin,
+                indices,
+            } => {
+                check_index::<NX>(indices, field)?;
+                Arc::new(CorePolygon::<NX>::new(vertices, *margin, *indices)?)
+            }
+            Spec::Cylinder {
+                center,
+                radius,
+                height,
+                band,
+                indices,
+            } => {
+                check_index::<NX>(indices, field)?;
+                Arc::new(CoreCylinder::<NX>::new(*center, *radius, *height, *band, *indices)?)
+            }
+            Spec::StateBox { lower, upper } => Arc::new(CoreStateBox::<NX>::new(
+                bound_vector::<NX>(lower, &format!("{field}.lower"))?,
+                bound_vector::<NX>(upper, &format!("{field}.upper"))?,
+            )?),
+            Spec::ControlBox { lower, upper } => Arc::new(CoreControlBox::<NU>::new(
+                bound_vector::<NU>(lower, &format!("{field}.lower"))?,
+                bound_vector::<NU>(upper, &format!("{field}.upper"))?,
+            )?),
+        })
+    }
+}
+
+fn check_index<const NX: usize>(indices: &[usize], field: &str) -> CoreResult<()> {
+    for (i, &j) in indices.iter().enumerate() {
+        if j >= NX {
+            return Err(invalid(
+                format!("{field}.indices[{i}]"),
+                format!("state index {j} out of range for {NX} states"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn index_arg(v: i64, field: &str) -> PyResult<usize> {
+    usize::try_from(v).map_err(|_| invalid(field, format!("must be a non-negative index, got {v}")).into())
+}
+
+fn point_arg(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<[f64; 2]> {
+    let a = finite_arr(obj, field)?;
+    a.expect_shape(field, &[2])?;
+    Ok([a.data[0], a.data[1]])
+}
+
+fn vector_arg(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Vec<f64>> {
+    let a = crate::convert::to_arr(obj, field)?;
+    if a.shape.len() != 1 {
+        return Err(shape(field, shape_str(&a.shape), "(n,)").into());
+    }
+    if let Some(i) = a.data.iter().position(|v| v.is_nan()) {
+        return Err(crate::errors::CoreError(ddp_core::Error::NotFinite {
+            field: field.to_string(),
+            index: i,
+            value: f64::NAN,
+        })
+        .into());
+    }
+    Ok(a.data)
+}
+
+/// Base class of the Safe-CDDP constraints `g(x, u) <= 0`.
+///
+/// State constraints (obstacles, state boxes) are imposed on `x_1 .. x_N`; the solver moves
+/// each to the knot whose control can change it (its relative degree). Control boxes are mixed
+/// constraints on `(x_k, u_k)` and are tightened like the others (unlike the problem's hard
+/// `u_min`/`u_max`).
+#[pyclass(module = "ddpkit._ddpkit", subclass, frozen)]
+pub struct Constraint {
+    spec: Arc<Spec>,
+}
+
+#[pymethods]
+impl Constraint {
+    fn __repr__(&self) -> String {
+        format!("{:?}", self.spec)
+    }
+}
+
+fn init<T: pyo3::PyClass<BaseType = Constraint>>(spec: Spec, sub: T) -> PyClassInitializer<T> {
+    PyClassInitializer::from(Constraint { spec: Arc::new(spec) }).add_subclass(sub)
+}
+
+/// A circular obstacle on the position `(x[i0], x[i1])` (a vertical cylinder of infinite height
+/// for a 3-D robot): `r^2 - |p - c|^2 <= 0` (`form="squared"`, as Xie et al. and the benchmark
+/// problems) or `r - |p - c| <= 0` (`form="distance"`: margins in metres).
+#[pyclass(module = "ddpkit._ddpkit", extends = Constraint, frozen)]
+pub struct Circle {
+    center: [f64; 2],
+    radius: f64,
+}
+
+#[pymethods]
+impl Circle {
+    #[new]
+    #[pyo3(signature = (center, radius, indices = (0, 1), form = "squared"))]
+    fn new(
+        center: &Bound<'_, PyAny>,
+        radius: f64,
+        indices: (i64, i64),
+        form: &str,
+    ) -> PyResult<PyClassInitializer<Self>> {
+        let center = point_arg(center, "center")?;
+        let indices = [index_arg(indices.0, "indices[0]")?, index_arg(indices.1, "indices[1]")?];
+        let distance = match form {
+            "squared" => false,
+            "distance" => true,
+            other => return Err(invalid("form", format!("must be 'squared' or 'distance', got '{other}'")).into()),
+        };
+        // Validate now (the dimension check waits for the solver).
+        CoreCircle::<64>::new(
+            center,
+            radius,
+            [0, 1],
+            safe_cddp::constraints::CircleForm::SquaredDistance,
+        )
+        .map_err(crate::errors::CoreError)?;
+        if indices[0] == indices[1] {
+            return Err(invalid("indices", "the two position indices must differ").into());
+        }
+        Ok(init(
+            Spec::Circle {
+                center,
+                radius,
+                indices,
+                distance,
+            },
+            Self { center, radius },
+        ))
+    }
+    /// The centre `(x, y)`.
+    #[getter]
+    fn center(&self) -> (f64, f64) {
+        (self.center[0], self.center[1])
+    }
+    /// The radius.
+    #[getter]
+    fn radius(&self) -> f64 {
+        self.radius
+    }
+}
+
+/// A convex polygonal obstacle (the convex hull of `vertices`, shape `(n, 2)`, n >= 3) inflated
+/// by `margin`: `margin - sd(p) <= 0` with the signed distance `sd` from parry.
+#[pyclass(module = "ddpkit._ddpkit", extends = Constraint, frozen)]
+pub struct ConvexPolygon {}
+
+#[pymethods]
+impl ConvexPolygon {
+    #[new]
+    #[pyo3(signature = (vertices, margin = 0.0, indices = (0, 1)))]
+    fn new(vertices: &Bound<'_, PyAny>, margin: f64, indices: (i64, i64)) -> PyResult<PyClassInitializer<Self>> {
+        let a = finite_arr(vertices, "vertices")?;
+        if a.shape.len() != 2 || a.shape[1] != 2 {
+            return Err(shape("vertices", shape_str(&a.shape), "(n, 2)").into());
+        }
+        let vertices: Vec<[f64; 2]> = a.data.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+        let indices = [index_arg(indices.0, "indices[0]")?, index_arg(indices.1, "indices[1]")?];
+        CorePolygon::<64>::new(&vertices, margin, [0, 1]).map_err(crate::errors::CoreError)?;
+        if indices[0] == indices[1] {
+            return Err(invalid("indices", "the two position indices must differ").into());
+        }
+        Ok(init(
+            Spec::Polygon {
+                vertices,
+                margin,
+                indices,
+            },
+            Self {},
+        ))
+    }
+}
+
+/// A vertical cylinder of `radius` around `center` standing up to `height` on the position
+/// `(x[i0], x[i1], x[i2])` (z up): the robot may pass beside or over it. The rim is smoothed over
+/// `band` (m).
+#[pyclass(module = "ddpkit._ddpkit", extends = Constraint, frozen)]
+pub struct Cylinder {}
+
+#[pymethods]
+impl Cylinder {
+    #[new]
+    #[pyo3(signature = (center, radius, height, band = 0.02, indices = (0, 1, 2)))]
+    fn new(
+        center: &Bound<'_, PyAny>,
+        radius: f64,
+        height: f64,
+        band: f64,
+        indices: (i64, i64, i64),
+    ) -> PyResult<PyClassInitializer<Self>> {
+        let center = point_arg(center, "center")?;
+        let indices = [
+            index_arg(indices.0, "indices[0]")?,
+            index_arg(indices.1, "indices[1]")?,
+            index_arg(indices.2, "indices[2]")?,
+        ];
+        CoreCylinder::<64>::new(center, radius, height, band, [0, 1, 2]).map_err(crate::errors::CoreError)?;
+        if indices[0] == indices[1] || indices[0] == indices[2] || indices[1] == indices[2] {
+            return Err(invalid("indices", "the three position indices must differ").into());
+        }
+        Ok(init(
+            Spec::Cylinder {
+                center,
+                radius,
+                height,
+                band,
+                indices,
+            },
+            Self {},
+        ))
+    }
+}
+
+/// State limits `lower <= x <= upper` (shape `(nx,)` each; `+-inf` for no limit).
+#[pyclass(module = "ddpkit._ddpkit", extends = Constraint, frozen)]
+pub struct StateBox {}
+
+#[pymethods]
+impl StateBox {
+    #[new]
+    fn new(lower: &Bound<'_, PyAny>, upper: &Bound<'_, PyAny>) -> PyResult<PyClassInitializer<Self>> {
+        let (lower, upper) = box_args(lower, upper)?;
+        Ok(init(Spec::StateBox { lower, upper }, Self {}))
+    }
+}
+
+/// Control limits `lower <= u <= upper` as (tightened) constraints, shape `(nu,)` each.
+#[pyclass(module = "ddpkit._ddpkit", extends = Constraint, frozen)]
+pub struct ControlBox {}
+
+#[pymethods]
+impl ControlBox {
+    #[new]
+    fn new(lower: &Bound<'_, PyAny>, upper: &Bound<'_, PyAny>) -> PyResult<PyClassInitializer<Self>> {
+        let (lower, upper) = box_args(lower, upper)?;
+        Ok(init(Spec::ControlBox { lower, upper }, Self {}))
+    }
+}
+
+fn box_args(lower: &Bound<'_, PyAny>, upper: &Bound<'_, PyAny>) -> PyResult<(Vec<f64>, Vec<f64>)> {
+    let (lo, hi) = (vector_arg(lower, "lower")?, vector_arg(upper, "upper")?);
+    if lo.len() != hi.len() {
+        return Err(shape("upper", format!("({},)", hi.len()), format!("({},)", lo.len())).into());
+    }
+    for (i, (l, h)) in lo.iter().zip(&hi).enumerate() {
+        if l > h {
+            return Err(invalid(format!("lower[{i}]"), format!("{l} exceeds upper[{i}] = {h}")).into());
+        }
+    }
+    Ok((lo, hi))
+}
+
+fn extract_constraints(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Arc<Spec>>> {
+    let mut out = Vec::new();
+    for (i, item) in obj.try_iter()?.enumerate() {
+        let item = item?;
+        match item.cast::<Constraint>() {
+            Ok(c) => out.push(c.get().spec.clone()),
+            Err(_) => {
+                return Err(invalid(
+                    format!("constraints[{i}]"),
+                    format!(
+                        "must be a ddpkit constraint (e.g. ddpkit.Circle), got {}",
+                        type_name(&item)
+                    ),
+                )
+                .into())
+            }
+        }
+    }
+    Ok(out)
+}
+
+// ------------------------------------------------------------------------------------------------
+// Tightening
+
+const GAINS: &str = "must be 'closed_loop', 'active_set', 'open_loop' or an (nu, nx) array";
+
+#[derive(Debug, Clone, PartialEq)]
+enum GainSpec {
+    ClosedLoop,
+    ActiveSet,
+    OpenLoop,
+    Fixed(Arr),
+}
+
+/// Chance-constraint tightening (eqs. 19-20): `beta`, the process noise `sigma_w` (`(nx, nx)`,
+/// symmetric PSD), the gains of the covariance propagation and the update period `n2`.
+///
+/// `gains`: `"closed_loop"` (Safe-CDDP: the backward pass's gains with the control bounds as
+/// its only constraint rows), `"active_set"` (eq. 12 with the state-constraint rows too),
+/// `"open_loop"` (`K = 0`) or a fixed gain, shape `(nu, nx)` (cautious MPC).
+#[pyclass(module = "ddpkit._ddpkit", frozen)]
+pub struct Tightening {
+    beta: f64,
+    sigma_w: Arr,
+    sigma_0: Option<Arr>,
+    gains: GainSpec,
+    update_every: usize,
+}
+
+impl Tightening {
+    fn build<const NX: usize, const NU: usize>(&self) -> CoreResult<CoreTightening<NX, NU>> {
+        let sigma_w = self.sigma_w.matrix::<NX, NX>("tightening.sigma_w")?;
+        let gains = match &self.gains {
+            GainSpec::ClosedLoop => Gains::ClosedLoop,
+            GainSpec::ActiveSet => Gains::ActiveSet,
+            GainSpec::OpenLoop => Gains::OpenLoop,
+            GainSpec::Fixed(k) => Gains::Fixed(k.matrix::<NU, NX>("tightening.gains")?),
+        };
+        let mut t = CoreTightening::new(self.beta, sigma_w)?
+            .with_gains(gains)?
+            .with_update_every(self.update_every)?;
+        if let Some(s0) = &self.sigma_0 {
+            t = t.with_initial_covariance(s0.matrix::<NX, NX>("tightening.sigma_0")?)?;
+        }
+        Ok(t)
+    }
+}
+
+#[pymethods]
+impl Tightening {
+    #[new]
+    #[pyo3(signature = (beta, sigma_w, gains = None, update_every = 5, sigma_0 = None))]
+    fn new(
+        beta: f64,
+        sigma_w: &Bound<'_, PyAny>,
+        gains: Option<&Bound<'_, PyAny>>,
+        update_every: i64,
+        sigma_0: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let sigma_w = finite_arr(sigma_w, "sigma_w")?;
+        let n = sigma_w.rows();
+        sigma_w.expect_shape("sigma_w", &[n, n])?;
+        // beta in (0, 1) and a symmetric PSD sigma_w, whatever its size (checked against nx later).
+        check_tightening(beta, &sigma_w)?;
+        let gains = match gains {
+            None => GainSpec::ClosedLoop,
+            Some(g) if g.is_none() => GainSpec::ClosedLoop,
+            Some(g) => match g.extract::<String>() {
+                Ok(s) => match s.as_str() {
+                    "closed_loop" => GainSpec::ClosedLoop,
+                    "active_set" => GainSpec::ActiveSet,
+                    "open_loop" => GainSpec::OpenLoop,
+                    other => return Err(invalid("gains", format!("{GAINS}, got '{other}'")).into()),
+                },
+                Err(_) => {
+                    let k = finite_arr(g, "gains")?;
+                    if k.shape.len() != 2 || k.shape[1] != n {
+                        return Err(shape("gains", shape_str(&k.shape), format!("(nu, {n})")).into());
+                    }
+                    GainSpec::Fixed(k)
+                }
+            },
+        };
+        let update_every = usize::try_from(update_every)
+            .ok()
+            .filter(|&v| v >= 1)
+            .ok_or_else(|| invalid("update_every", format!("must be at least 1, got {update_every}")))?;
+        let sigma_0 = match sigma_0 {
+            Some(s) if !s.is_none() => {
+                let s = finite_arr(s, "sigma_0")?;
+                s.expect_shape("sigma_0", &[n, n])?;
+                check_tightening(0.9, &s).map_err(|e| rename(e, "sigma_w", "sigma_0"))?;
+                Some(s)
+            }
+            _ => None,
+        };
+        Ok(Self {
+            beta,
+            sigma_w,
+            sigma_0,
+            gains,
+            update_every,
+        })
+    }
+    /// `beta`.
+    #[getter]
+    fn beta(&self) -> f64 {
+        self.beta
+    }
+    /// `phi^{-1}(beta)`, the standard-normal quantile.
+    #[getter]
+    fn quantile(&self) -> f64 {
+        safe_cddp::quantile::normal_quantile(self.beta).unwrap_or(f64::NAN)
+    }
+    /// `n2`: iterations between tightenings.
+    #[getter]
+    fn update_every(&self) -> usize {
+        self.update_every
+    }
+    fn __repr__(&self) -> String {
+        let g = match &self.gains {
+            GainSpec::ClosedLoop => "'closed_loop'".to_string(),
+            GainSpec::ActiveSet => "'active_set'".to_string(),
+            GainSpec::OpenLoop => "'open_loop'".to_string(),
+            GainSpec::Fixed(k) => format!("<fixed {}>", shape_str(&k.shape)),
+        };
+        format!(
+            "Tightening(beta={}, gains={g}, update_every={})",
+            self.beta, self.update_every
+        )
+    }
+}
+
+fn rename(e: crate::errors::CoreError, from: &str, to: &str) -> crate::errors::CoreError {
+    let msg = e.0.to_string().replace(from, to);
+    invalid(to, msg)
+}
+
+/// Checks `beta` and that `sigma` is symmetric PSD (any size), with the core's messages.
+fn check_tightening(beta: f64, sigma: &Arr) -> CoreResult<()> {
+    if safe_cddp::quantile::normal_quantile(beta).is_none() {
+        return Err(invalid("beta", format!("must be in (0, 1), got {beta}")));
+    }
+    let n = sigma.rows();
+    let m = nalgebra::DMatrix::from_row_slice(n, n, &sigma.data);
+    let scale = m.amax().max(1.0);
+    for i in 0..n {
+        for j in 0..i {
+            if (m[(i, j)] - m[(j, i)]).abs() > 1e-9 * scale {
+                return Err(crate::errors::CoreError(ddp_core::Error::NotPsd {
+                    field: "sigma_w".into(),
+                    reason: format!("not symmetric at ({i}, {j})"),
+                }));
+            }
+        }
+    }
+    if n > 0 {
+        let eig = nalgebra::SymmetricEigen::new(m).eigenvalues;
+        if eig.iter().any(|&v| v < -1e-12 * scale) {
+            return Err(crate::errors::CoreError(ddp_core::Error::NotPsd {
+                field: "sigma_w".into(),
+                reason: "has a negative eigenvalue".into(),
+            }));
+        }
+    }
+    Ok(())
+}
+
+// ------------------------------------------------------------------------------------------------
+// Settings
+
+fn settings_from(
+    method: &str,
+    max_iterations: i64,
+    constraint_tolerance: f64,
+    qp_method: &str,
+    warm_up: bool,
+) -> CoreResult<Settings> {
+    let method = match method.to_ascii_lowercase().as_str() {
+        "ilqr" => Method::Ilqr,
+        "ddp" => Method::Ddp,
+        other => return Err(invalid("method", format!("must be 'ilqr' or 'ddp', got '{other}'"))),
+    };
+    let qp_method = match qp_method.to_ascii_lowercase().as_str() {
+        "fast" => QpMethod::Fast,
+        "clarabel" => QpMethod::Clarabel,
+        other => {
+            return Err(invalid(
+                "qp_method",
+                format!("must be 'fast' or 'clarabel', got '{other}'"),
+            ))
+        }
+    };
+    let max_iterations = usize::try_from(max_iterations)
+        .ok()
+        .filter(|&v| v >= 1)
+        .ok_or_else(|| invalid("max_iterations", format!("must be at least 1, got {max_iterations}")))?;
+    let s = Settings {
+        method,
+        max_iterations,
+        constraint_tolerance,
+        qp_method,
+        al_warm_start: warm_up,
+        ..Settings::default()
+    };
+    s.validate()?;
+    Ok(s)
+}
+
+// ------------------------------------------------------------------------------------------------
+// Dimension dispatch: one solver / MPC variant per compiled pair.
+
+macro_rules! any_safe {
+    ($( $var:ident = ($nx:literal, $nu:literal) ),+ $(,)?) => {
+        enum AnySafe { $( $var(Box<CoreSolver<$nx, $nu>>) ),+ }
+        enum AnyMpc { $( $var(Box<CoreMpc<$nx, $nu>>) ),+ }
+        /// Access to the variants of [`AnySafe`] and [`AnyMpc`] for one pair.
+        trait SafePair<const NX: usize, const NU: usize> {
+            fn solver(s: &mut AnySafe) -> Option<&mut CoreSolver<NX, NU>>;
+            fn wrap(s: CoreSolver<NX, NU>) -> AnySafe;
+            fn mpc(m: &mut AnyMpc) -> Option<&mut CoreMpc<NX, NU>>;
+            fn wrap_mpc(m: CoreMpc<NX, NU>) -> AnyMpc;
+        }
+        $(
+            #[allow(unreachable_patterns)]
+            impl SafePair<$nx, $nu> for Dims {
+                fn solver(s: &mut AnySafe) -> Option<&mut CoreSolver<$nx, $nu>> {
+                    match s { AnySafe::$var(x) => Some(&mut **x), _ => None }
+                }
+                fn wrap(s: CoreSolver<$nx, $nu>) -> AnySafe { AnySafe::$var(Box::new(s)) }
+                fn mpc(m: &mut AnyMpc) -> Option<&mut CoreMpc<$nx, $nu>> {
+                    match m { AnyMpc::$var(x) => Some(&mut **x), _ => None }
+                }
+                fn wrap_mpc(m: CoreMpc<$nx, $nu>) -> AnyMpc { AnyMpc::$var(Box::new(m)) }
+            }
+        )+
+    };
+}
+
+// The pairs of `crate::dims` (with_dims! dispatches to them).
+any_safe!(D3x2 = (3, 2), D4x2 = (4, 2), D12x4 = (12, 4), D10x5 = (10, 5));
+
+fn typed_constraints<const NX: usize, const NU: usize>(
+    specs: &[Arc<Spec>],
+) -> CoreResult<Vec<Arc<dyn CoreConstraint<NX, NU>>>> {
+    specs
+        .iter()
+        .enumerate()
+        .map(|(i, s)| s.build::<NX, NU>(&format!("constraints[{i}]")))
+        .collect()
+}
+
+fn new_safe<const NX: usize, const NU: usize>(
+    p: &AnyProblem,
+    specs: &[Arc<Spec>],
+    tightening: Option<&Tightening>,
+    settings: Settings,
+) -> CoreResult<AnySafe>
+where
+    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+{
+    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    let per_knot = 40 * std::mem::size_of::<Matrix<NX, NX>>();
+    crate::convert::check_allocation("horizon", p.horizon() + 1, per_knot)?;
+    let mut s = CoreSolver::new(p, typed_constraints::<NX, NU>(specs)?, settings)?;
+    s.set_tightening(tightening.map(|t| t.build::<NX, NU>()).transpose()?);
+    Ok(<Dims as SafePair<NX, NU>>::wrap(s))
+}
+
+/// Plain-data results copied out of the workspace without the GIL.
+struct Out {
+    n: usize,
+    xs: Vec<f64>,
+    us: Vec<f64>,
+    gains: Vec<f64>,
+    feedforward: Vec<f64>,
+    propagation_gains: Vec<f64>,
+    covariances: Vec<f64>,
+    margins: Vec<f64>,
+    rows: usize,
+    report: Report,
+}
+
+fn out_of<const NX: usize, const NU: usize>(s: &CoreSolver<NX, NU>) -> Out {
+    let n = s.horizon();
+    Out {
+        n,
+        xs: s.xs().iter().flat_map(|x| x.iter().copied()).collect(),
+        us: s.us().iter().flat_map(|u| u.iter().copied()).collect(),
+        gains: s.gains().iter().flat_map(row_major).collect(),
+        feedforward: s.feedforward().iter().flat_map(|k| k.iter().copied()).collect(),
+        propagation_gains: s.propagation_gains().iter().flat_map(row_major).collect(),
+        covariances: s.covariances().iter().flat_map(row_major).collect(),
+        margins: (0..n).flat_map(|k| s.margins(k).iter().copied()).collect(),
+        rows: s.rows_per_knot(),
+        report: s.report().clone(),
+    }
+}
+
+fn solve_safe<const NX: usize, const NU: usize>(
+    s: &mut AnySafe,
+    p: &AnyProblem,
+    us0: Option<&Arr>,
+    warm_start: bool,
+) -> CoreResult<Out>
+where
+    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+{
+    let s = <Dims as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
+    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    match us0 {
+        Some(us) => s.set_controls(&controls::<NU>(us, "us0", s.horizon())?)?,
+        None if !warm_start => s.reset(),
+        None => {}
+    }
+    s.solve(p)?;
+    Ok(out_of(s))
+}
+
+fn tighten_safe<const NX: usize, const NU: usize>(s: &mut AnySafe, p: &AnyProblem) -> CoreResult<f64>
+where
+    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+{
+    let s = <Dims as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
+    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    Ok(s.tighten(p)?)
+}
+
+fn edit_safe<const NX: usize, const NU: usize>(s: &mut AnySafe, what: Edit) -> CoreResult<usize>
+where
+    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+{
+    let s = <Dims as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
+    match what {
+        Edit::Shift => s.shift(),
+        Edit::Reset => s.reset(),
+        Edit::Horizon(n) => s.set_horizon(n)?,
+        Edit::Get => {}
+    }
+    Ok(s.horizon())
+}
+
+#[derive(Clone, Copy)]
+enum Edit {
+    Shift,
+    Reset,
+    Horizon(usize),
+    Get,
+}
+
+/// The Safe-CDDP solver: constrained DDP (Xie et al. 2017, KKT backward pass and per-step QPs)
+/// with an augmented-Lagrangian warm-up, and, with a :class:`Tightening`, the chance-constraint
+/// margins of Safe-CDDP (eqs. 19-20) updated every ``n2`` iterations.
+#[pyclass(module = "ddpkit._ddpkit")]
+pub struct SafeCddpSolver {
+    shared: Arc<RwLock<AnyProblem>>,
+    inner: AnySafe,
+    nx: usize,
+    nu: usize,
+}
+
+#[pymethods]
+impl SafeCddpSolver {
+    #[new]
+    #[pyo3(signature = (problem, constraints, tightening = None, method = "ilqr", max_iterations = 200,
+                        constraint_tolerance = 1e-8, qp_method = "fast", warm_up = true))]
+    fn new(
+        problem: Bound<'_, Problem>,
+        constraints: &Bound<'_, PyAny>,
+        tightening: Option<Bound<'_, Tightening>>,
+        method: &str,
+        max_iterations: i64,
+        constraint_tolerance: f64,
+        qp_method: &str,
+        warm_up: bool,
+    ) -> PyResult<Self> {
+        let specs = extract_constraints(constraints)?;
+        let settings = settings_from(method, max_iterations, constraint_tolerance, qp_method, warm_up)?;
+        let p = problem.get();
+        let (nx, nu) = (p.nx, p.nu);
+        let shared = p.inner.clone();
+        let t = tightening.as_ref().map(|t| t.get());
+        let inner = Problem::read(&shared, |q| with_dims!(nx, nu, new_safe(q, &specs, t, settings)))?;
+        Ok(Self { shared, inner, nx, nu })
+    }
+
+    /// Solves and returns a :class:`SafeSolution`; the GIL is released meanwhile.
+    ///
+    /// The initial guess is ``us0`` if given (shape ``(n, nu)`` for the active horizon ``n``),
+    /// else the controls of the last solve when ``warm_start`` is true, else zeros.
+    #[pyo3(signature = (us0 = None, warm_start = false))]
+    fn solve(&mut self, py: Python<'_>, us0: Option<&Bound<'_, PyAny>>, warm_start: bool) -> PyResult<SafeSolution> {
+        let us0 = match us0 {
+            Some(u) if !u.is_none() => Some(finite_arr(u, "us0")?),
+            _ => None,
+        };
+        let (nx, nu) = (self.nx, self.nu);
+        let shared = &self.shared;
+        let inner = &mut self.inner;
+        let out = py.detach(|| -> CoreResult<Out> {
+            Problem::read(shared, |p| {
+                with_dims!(nx, nu, solve_safe(inner, p, us0.as_ref(), warm_start))
+            })
+        })?;
+        SafeSolution::from_out(py, out, nx, nu)
+    }
+
+    /// Constraint tightening at the current trajectory (eqs. 19-20); returns the largest change
+    /// of a margin (0 without a tightening).
+    fn tighten(&mut self, py: Python<'_>) -> PyResult<f64> {
+        let (nx, nu) = (self.nx, self.nu);
+        let shared = &self.shared;
+        let inner = &mut self.inner;
+        Ok(py.detach(|| -> CoreResult<f64> { Problem::read(shared, |p| with_dims!(nx, nu, tighten_safe(inner, p))) })?)
+    }
+
+    /// Receding horizon: drops knot 0 of the solution (controls, gains, multipliers, margins).
+    fn shift(&mut self) -> PyResult<()> {
+        with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Shift))?;
+        Ok(())
+    }
+
+    /// A cold start: zeros the initial guess, gains, multipliers and margins.
+    fn reset(&mut self) -> PyResult<()> {
+        with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Reset))?;
+        Ok(())
+    }
+
+    /// Shortens (or restores) the active horizon ``1 <= n <= N`` (shrinking-horizon MPC).
+    fn set_horizon(&mut self, n: i64) -> PyResult<()> {
+        let n = usize::try_from(n).map_err(|_| invalid("horizon", format!("must be at least 1, got {n}")))?;
+        with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Horizon(n)))?;
+        Ok(())
+    }
+
+    /// The active horizon.
+    #[getter]
+    fn horizon(&mut self) -> PyResult<usize> {
+        Ok(with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Get))?)
+    }
+
+    /// Number of states.
+    #[getter]
+    fn nx(&self) -> usize {
+        self.nx
+    }
+
+    /// Number of controls.
+    #[getter]
+    fn nu(&self) -> usize {
+        self.nu
+    }
+
+    fn __repr__(&mut self) -> String {
+        let n = self.horizon().unwrap_or(0);
+        format!("SafeCddpSolver(nx={}, nu={}, horizon={n})", self.nx, self.nu)
+    }
+}
+
+/// The result of :meth:`SafeCddpSolver.solve`.
+#[pyclass(module = "ddpkit._ddpkit", frozen)]
+pub struct SafeSolution {
+    /// States `x_0 .. x_n`, shape `(n+1, nx)`.
+    #[pyo3(get)]
+    xs: Py<PyAny>,
+    /// Controls, shape `(n, nu)`.
+    #[pyo3(get)]
+    us: Py<PyAny>,
+    /// Feedback gains of the last backward pass (eq. 12), shape `(n, nu, nx)`.
+    #[pyo3(get, name = "K")]
+    gains: Py<PyAny>,
+    /// Feed-forward terms (eq. 12), shape `(n, nu)`.
+    #[pyo3(get, name = "k")]
+    feedforward: Py<PyAny>,
+    /// Gains of the last covariance propagation (eq. 19), shape `(n, nu, nx)`.
+    #[pyo3(get)]
+    propagation_gains: Py<PyAny>,
+    /// Covariances `Sigma_0 .. Sigma_n` of the last tightening (eq. 19), shape `(n+1, nx, nx)`.
+    #[pyo3(get)]
+    covariances: Py<PyAny>,
+    /// Margins of every row of every knot (eq. 20), shape `(n, rows)`: the constraints' rows in
+    /// order, then two per control bound.
+    #[pyo3(get)]
+    margins: Py<PyAny>,
+    /// `"converged"`, `"max_iterations"`, `"regularization_limit"`, `"line_search_failed"`,
+    /// `"infeasible"`, `"qp_failed"` or `"numerical_error"`.
+    #[pyo3(get)]
+    status: String,
+    /// Accepted steps.
+    #[pyo3(get)]
+    iterations: usize,
+    /// Final cost.
+    #[pyo3(get)]
+    cost: f64,
+    /// Largest violation of an original constraint.
+    #[pyo3(get)]
+    max_violation: f64,
+    /// Largest violation of a tightened row.
+    #[pyo3(get)]
+    max_violation_tightened: f64,
+    /// Tightenings performed.
+    #[pyo3(get)]
+    tightenings: usize,
+    /// Wall time of the solve inside Rust (s).
+    #[pyo3(get)]
+    solve_time: f64,
+    report: Report,
+}
+
+impl SafeSolution {
+    fn from_out(py: Python<'_>, o: Out, nx: usize, nu: usize) -> PyResult<Self> {
+        let n = o.n;
+        let r = o.report;
+        Ok(Self {
+            xs: rows_to_numpy(py, n + 1, nx, o.xs)?.unbind(),
+            us: rows_to_numpy(py, n, nu, o.us)?.unbind(),
+            gains: stack_to_numpy(py, n, nu, nx, o.gains)?.unbind(),
+            feedforward: rows_to_numpy(py, n, nu, o.feedforward)?.unbind(),
+            propagation_gains: stack_to_numpy(py, n, nu, nx, o.propagation_gains)?.unbind(),
+            covariances: stack_to_numpy(py, n + 1, nx, nx, o.covariances)?.unbind(),
+            margins: rows_to_numpy(py, n, o.rows, o.margins)?.unbind(),
+            status: r.status.as_str().to_string(),
+            iterations: r.iterations,
+            cost: r.cost,
+            max_violation: r.max_violation,
+            max_violation_tightened: r.max_violation_tightened,
+            tightenings: r.tightenings,
+            solve_time: r.solve_time.as_secs_f64(),
+            report: r,
+        })
+    }
+}
+
+#[pymethods]
+impl SafeSolution {
+    /// Whether the solve converged.
+    #[getter]
+    fn converged(&self) -> bool {
+        self.status == "converged"
+    }
+    /// The iteration table (deterministic: no timings).
+    fn table(&self) -> String {
+        self.report.table()
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "SafeSolution(status='{}', iterations={}, cost={:.10e}, max_violation={:.3e})",
+            self.status, self.iterations, self.cost, self.max_violation
+        )
+    }
+}
+
+// ------------------------------------------------------------------------------------------------
+// MPC
+
+struct MpcArgs {
+    goal: Arr,
+    goal_indices: Vec<usize>,
+    goal_radius: f64,
+    iterations: usize,
+    initial_iterations: usize,
+    position_indices: [usize; 2],
+}
+
+fn new_mpc<const NX: usize, const NU: usize>(
+    p: &AnyProblem,
+    specs: &[Arc<Spec>],
+    tightening: Option<&Tightening>,
+    sigma_w: &Arr,
+    settings: Settings,
+    a: &MpcArgs,
+) -> CoreResult<AnyMpc>
+where
+    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+{
+    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    let per_knot = 40 * std::mem::size_of::<Matrix<NX, NX>>();
+    crate::convert::check_allocation("horizon", p.horizon() + 1, per_knot)?;
+    let mpc = MpcSettings {
+        iterations: a.iterations,
+        initial_iterations: a.initial_iterations,
+        goal: a.goal.vector::<NX>("goal")?,
+        goal_indices: a.goal_indices.clone(),
+        goal_radius: a.goal_radius,
+        position_indices: a.position_indices,
+    };
+    let m = CoreMpc::new(
+        p,
+        typed_constraints::<NX, NU>(specs)?,
+        vec![],
+        settings,
+        tightening.map(|t| t.build::<NX, NU>()).transpose()?,
+        sigma_w.matrix::<NX, NX>("sigma_w")?,
+        mpc,
+    )?;
+    Ok(<Dims as SafePair<NX, NU>>::wrap_mpc(m))
+}
+
+struct EpisodeOut {
+    success: bool,
+    steps: usize,
+    collisions: usize,
+    infeasible_steps: usize,
+    xs: Vec<f64>,
+    us: Vec<f64>,
+}
+
+fn run_mpc<const NX: usize, const NU: usize>(m: &mut AnyMpc, seed: u64) -> CoreResult<EpisodeOut>
+where
+    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+{
+    let m = <Dims as SafePair<NX, NU>>::mpc(m).ok_or_else(|| internal_mismatch("mpc"))?;
+    let e = m.run_episode(seed)?;
+    Ok(EpisodeOut {
+        success: e.success,
+        steps: e.steps,
+        collisions: e.collisions,
+        infeasible_steps: e.infeasible_steps,
+        xs: e.xs.iter().flat_map(|x| x.iter().copied()).collect(),
+        us: e.us.iter().flat_map(|u| u.iter().copied()).collect(),
+    })
+}
+
+/// Shrinking-horizon MPC with Safe-CDDP (Algorithm 1) under seeded Gaussian process noise.
+///
+/// Per step: ``iterations`` (``n1``) solver iterations, tightening every ``n2``
+/// (:attr:`Tightening.update_every`); the first control is applied to the true state
+/// ``x+ = f(x, u0) + w``, ``w ~ N(0, sigma_w)``; the trajectory is shifted and the horizon
+/// shortened. An episode ends at the goal region (``goal_radius`` around ``goal`` on
+/// ``goal_indices``) or when the horizon runs out. Collisions are steps whose true state
+/// violates an original (untightened) state constraint. Uses a copy of the problem taken at
+/// construction.
+#[pyclass(module = "ddpkit._ddpkit")]
+pub struct Mpc {
+    inner: AnyMpc,
+    nx: usize,
+    nu: usize,
+}
+
+#[pymethods]
+impl Mpc {
+    #[new]
+    #[pyo3(signature = (problem, constraints, sigma_w, goal, tightening = None, goal_indices = vec![0, 1],
+                        goal_radius = 0.1, iterations = 10, initial_iterations = 50,
+                        position_indices = (0, 1), max_iterations = 400))]
+    fn new(
+        problem: Bound<'_, Problem>,
+        constraints: &Bound<'_, PyAny>,
+        sigma_w: &Bound<'_, PyAny>,
+        goal: &Bound<'_, PyAny>,
+        tightening: Option<Bound<'_, Tightening>>,
+        goal_indices: Vec<i64>,
+        goal_radius: f64,
+        iterations: i64,
+        initial_iterations: i64,
+        position_indices: (i64, i64),
+        max_iterations: i64,
+    ) -> PyResult<Self> {
+        let specs = extract_constraints(constraints)?;
+        let settings = settings_from("ilqr", max_iterations, 1e-8, "fast", true)?;
+        let p = problem.get();
+        let (nx, nu) = (p.nx, p.nu);
+        let sigma_w = finite_arr(sigma_w, "sigma_w")?;
+        sigma_w.expect_shape("sigma_w", &[nx, nx])?;
+        check_tightening(0.9, &sigma_w)?;
+        let goal = finite_arr(goal, "goal")?;
+        let count = |v: i64, field: &str| -> PyResult<usize> {
+            usize::try_from(v)
+                .ok()
+                .filter(|&n| n >= 1)
+                .ok_or_else(|| invalid(field, format!("must be at least 1, got {v}")).into())
+        };
+        let args = MpcArgs {
+            goal,
+            goal_indices: goal_indices
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| index_arg(v, &format!("goal_indices[{i}]")))
+                .collect::<PyResult<_>>()?,
+            goal_radius,
+            iterations: count(iterations, "iterations")?,
+            initial_iterations: count(initial_iterations, "initial_iterations")?,
+            position_indices: [
+                index_arg(position_indices.0, "position_indices[0]")?,
+                index_arg(position_indices.1, "position_indices[1]")?,
+            ],
+        };
+        let t = tightening.as_ref().map(|t| t.get());
+        let inner = Problem::read(&p.inner, |q| {
+            with_dims!(nx, nu, new_mpc(q, &specs, t, &sigma_w, settings, &args))
+        })?;
+        Ok(Self { inner, nx, nu })
+    }
+
+    /// Runs one episode from the problem's ``x0`` with the noise of ``seed`` (deterministic for
+    /// a seed); the GIL is released meanwhile.
+    fn run_episode(&mut self, py: Python<'_>, seed: u64) -> PyResult<Episode> {
+        let (nx, nu) = (self.nx, self.nu);
+        let inner = &mut self.inner;
+        let e = py.detach(|| -> CoreResult<EpisodeOut> { with_dims!(nx, nu, run_mpc(inner, seed)) })?;
+        Ok(Episode {
+            success: e.success,
+            steps: e.steps,
+            collisions: e.collisions,
+            infeasible_steps: e.infeasible_steps,
+            xs: rows_to_numpy(py, e.steps + 1, nx, e.xs)?.unbind(),
+            us: rows_to_numpy(py, e.steps, nu, e.us)?.unbind(),
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Mpc(nx={}, nu={})", self.nx, self.nu)
+    }
+}
+
+/// One MPC episode (:meth:`Mpc.run_episode`).
+#[pyclass(module = "ddpkit._ddpkit", frozen)]
+pub struct Episode {
+    /// The goal region was reached.
+    #[pyo3(get)]
+    success: bool,
+    /// MPC steps applied.
+    #[pyo3(get)]
+    steps: usize,
+    /// Steps whose true state violated an original constraint.
+    #[pyo3(get)]
+    collisions: usize,
+    /// Steps at which the solver reported an infeasible QP or trajectory.
+    #[pyo3(get)]
+    infeasible_steps: usize,
+    /// True states, shape `(steps+1, nx)`.
+    #[pyo3(get)]
+    xs: Py<PyAny>,
+    /// Applied controls, shape `(steps, nu)`.
+    #[pyo3(get)]
+    us: Py<PyAny>,
+}
+
+#[pymethods]
+impl Episode {
+    fn __repr__(&self) -> String {
+        format!(
+            "Episode(success={}, steps={}, collisions={})",
+            if self.success { "True" } else { "False" },
+            self.steps,
+            self.collisions
+        )
+    }
+}
+
+/// Adds the Safe-CDDP classes to the extension module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Constraint>()?;
+    m.add_class::<Circle>()?;
+    m.add_class::<ConvexPolygon>()?;
+    m.add_class::<Cylinder>()?;
+    m.add_class::<StateBox>()?;
+    m.add_class::<ControlBox>()?;
+    m.add_class::<Tightening>()?;
+    m.add_class::<SafeCddpSolver>()?;
+    m.add_class::<SafeSolution>()?;
+    m.add_class::<Mpc>()?;
+    m.add_class::<Episode>()?;
+    Ok(())
+}

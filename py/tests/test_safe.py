@@ -1,0 +1,224 @@
+"""Safe-CDDP from Python: constraints, the constrained solver, tightening (eqs. 19-20), the MPC."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+import ddpkit
+
+#: Benchmark P3 (bench/problems.md): its optimum found by every peer.
+P3_COST = 1.8958999
+P3_OBSTACLES = [(1.0, 1.1, 0.4), (2.0, 1.9, 0.4), (2.6, 2.9, 0.25)]
+
+
+def p3_problem() -> ddpkit.Problem:
+    return ddpkit.Problem(
+        x0=np.zeros(4),
+        dynamics=ddpkit.DoubleIntegrator2D(dt=0.05),
+        running_cost=ddpkit.QuadraticCost(Q=np.zeros(4), R=[0.1, 0.1]),
+        terminal_cost=ddpkit.QuadraticTerminal(Qf=[100.0, 100.0, 10.0, 10.0], x_ref=[3.0, 3.0, 0.0, 0.0]),
+        horizon=100,
+        u_min=-0.8,
+        u_max=0.8,
+    )
+
+
+def p3_obstacles(form: str = "squared") -> list[ddpkit.Constraint]:
+    return [ddpkit.Circle((ox, oy), r, form=form) for ox, oy, r in P3_OBSTACLES]
+
+
+def violation(xs: np.ndarray) -> float:
+    """Largest `r^2 - |p - o|^2` over x_1..x_N, in numpy."""
+    worst = 0.0
+    for ox, oy, r in P3_OBSTACLES:
+        worst = max(worst, float(np.max(r**2 - (xs[1:, 0] - ox) ** 2 - (xs[1:, 1] - oy) ** 2)))
+    return worst
+
+
+def clearance(xs: np.ndarray) -> float:
+    """Smallest `|p - o| - r` over x_1..x_N (negative inside an obstacle)."""
+    return min(float(np.min(np.hypot(xs[1:, 0] - ox, xs[1:, 1] - oy) - r)) for ox, oy, r in P3_OBSTACLES)
+
+
+def test_p3_reaches_the_peers_optimum() -> None:
+    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles())
+    sol = solver.solve()
+    assert sol.converged, sol.table()
+    assert sol.cost <= P3_COST * (1 + 1e-6)
+    assert sol.max_violation <= 1e-6
+    assert violation(sol.xs) <= 1e-6
+    assert sol.xs.shape == (101, 4) and sol.us.shape == (100, 2)
+    assert sol.K.shape == (100, 2, 4) and sol.k.shape == (100, 2)
+    assert np.all(np.abs(sol.us) <= 0.8 + 1e-12)
+    # Without obstacles the constrained solver is the plain one.
+    free = ddpkit.SafeCddpSolver(p3_problem(), []).solve()
+    plain = ddpkit.Solver(p3_problem(), gradient_tolerance=1e-12, cost_tolerance=1e-12).solve()
+    assert free.cost == pytest.approx(plain.cost, rel=1e-8)
+
+
+def test_clarabel_qps_agree() -> None:
+    fast = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), qp_method="fast").solve()
+    exact = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), qp_method="clarabel").solve()
+    assert exact.converged
+    assert exact.cost == pytest.approx(fast.cost, rel=1e-6)
+
+
+def test_tightening_keeps_a_margin_that_grows_with_beta() -> None:
+    sigma_w = np.diag([1e-5, 1e-5, 4e-5, 4e-5])
+    costs, clearances = [], []
+    for beta in (0.5, 0.9, 0.99):
+        t = ddpkit.Tightening(beta, sigma_w)
+        sol = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), tightening=t).solve()
+        assert sol.converged, sol.table()
+        assert sol.max_violation_tightened <= 1e-6
+        assert sol.tightenings >= 1
+        assert sol.covariances.shape == (101, 4, 4)
+        assert sol.propagation_gains.shape == (100, 2, 4)
+        assert sol.margins.shape[0] == 100
+        if beta == 0.5:
+            assert np.all(sol.margins == 0.0)  # phi^-1(0.5) = 0: plain CDDP
+        else:
+            assert sol.margins[:, :3].max() > 0.0
+        costs.append(sol.cost)
+        clearances.append(clearance(sol.xs))
+    # A higher beta keeps farther from the obstacles and pays for it.
+    assert clearances[0] < clearances[1] < clearances[2]
+    assert costs[0] < costs[1] < costs[2]
+    # The covariance is symmetric PSD and grows from zero.
+    cov = ddpkit.SafeCddpSolver(p3_problem(), [], tightening=ddpkit.Tightening(0.9, sigma_w)).solve().covariances
+    assert np.allclose(cov[0], 0.0)
+    assert np.allclose(cov, np.transpose(cov, (0, 2, 1)))
+    assert np.all(np.linalg.eigvalsh(cov[1:]) > -1e-15)
+
+
+def test_open_loop_and_fixed_gains_are_more_conservative_in_covariance() -> None:
+    sigma_w = np.diag([1e-5, 1e-5, 4e-5, 4e-5])
+    sigma_pos = {}
+    for gains in ("closed_loop", "open_loop"):
+        t = ddpkit.Tightening(0.95, sigma_w, gains=gains)
+        sol = ddpkit.SafeCddpSolver(p3_problem(), [], tightening=t).solve()
+        sigma_pos[gains] = sol.covariances[-1, 0, 0]
+        if gains == "open_loop":
+            assert np.all(sol.propagation_gains == 0.0)
+    assert sigma_pos["open_loop"] > sigma_pos["closed_loop"]
+    k_fixed = np.array([[-1.0, 0.0, -1.5, 0.0], [0.0, -1.0, 0.0, -1.5]])
+    sol = ddpkit.SafeCddpSolver(p3_problem(), [], tightening=ddpkit.Tightening(0.95, sigma_w, gains=k_fixed)).solve()
+    assert np.allclose(sol.propagation_gains, k_fixed)
+
+
+def test_every_constraint_kind_builds_and_solves() -> None:
+    constraints = [
+        ddpkit.Circle((1.5, 1.4), 0.3, form="distance"),
+        ddpkit.ConvexPolygon([[0.6, 2.0], [1.0, 2.0], [1.0, 2.4], [0.6, 2.4]], margin=0.05),
+        ddpkit.Cylinder((2.4, 0.8), 0.2, height=5.0, indices=(0, 1, 2)),
+        ddpkit.StateBox([-1.0, -1.0, -2.0, -2.0], [4.0, 4.0, 2.0, 2.0]),
+        ddpkit.ControlBox([-0.7, -0.7], [0.7, 0.7]),
+    ]
+    sol = ddpkit.SafeCddpSolver(p3_problem(), constraints, max_iterations=400).solve()
+    assert sol.status in ("converged", "max_iterations"), sol.table()
+    assert sol.max_violation <= 1e-6
+    assert np.all(np.abs(sol.us) <= 0.7 + 1e-6)
+
+
+def test_receding_horizon_api() -> None:
+    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles())
+    first = solver.solve()
+    solver.shift()
+    solver.set_horizon(99)
+    assert solver.horizon == 99
+    problem = p3_problem()
+    problem.set_x0(first.xs[1])
+    shorter = ddpkit.SafeCddpSolver(problem, p3_obstacles())
+    shorter.set_horizon(99)
+    sol = shorter.solve()
+    assert sol.xs.shape == (100, 4)
+    solver.reset()
+    solver.set_horizon(100)
+    assert solver.solve().cost == pytest.approx(first.cost, rel=1e-9)
+
+
+def test_mpc_episode_is_deterministic_and_safe_cddp_avoids_collisions() -> None:
+    sigma_w = np.diag([9e-6, 9e-6, 3.6e-5, 3.6e-5])
+    goal = [3.0, 3.0, 0.0, 0.0]
+    mpc = ddpkit.Mpc(p3_problem(), p3_obstacles(), sigma_w, goal, tightening=ddpkit.Tightening(0.99, sigma_w))
+    a = mpc.run_episode(4)
+    b = mpc.run_episode(4)
+    assert a.steps == b.steps and np.array_equal(a.xs, b.xs)
+    assert a.xs.shape == (a.steps + 1, 4) and a.us.shape == (a.steps, 2)
+    assert a.success
+    assert a.collisions == 0
+    c = mpc.run_episode(5)
+    assert not np.array_equal(a.xs, c.xs)
+
+
+def test_solves_release_the_gil() -> None:
+    # Two solvers in two threads finish with the same results as in sequence.
+    results: list[float] = [0.0, 0.0]
+
+    def work(i: int) -> None:
+        results[i] = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles()).solve().cost
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert results[0] == results[1] == pytest.approx(P3_COST, rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    "make, error, field",
+    [
+        (lambda: ddpkit.Circle((np.nan, 0.0), 1.0), ddpkit.NotFiniteError, "center"),
+        (lambda: ddpkit.Circle((0.0, 0.0), -1.0), ddpkit.InvalidInputError, "radius"),
+        (lambda: ddpkit.Circle((0.0, 0.0, 1.0), 1.0), ddpkit.ShapeError, "center"),
+        (lambda: ddpkit.Circle((0.0, 0.0), 1.0, form="round"), ddpkit.InvalidInputError, "form"),
+        (lambda: ddpkit.Circle((0.0, 0.0), 1.0, indices=(1, 1)), ddpkit.InvalidInputError, "indices"),
+        (lambda: ddpkit.ConvexPolygon([[0.0, 0.0], [1.0, 1.0]]), ddpkit.InvalidInputError, "vertices"),
+        (lambda: ddpkit.StateBox([1.0, 0.0], [0.0, 1.0]), ddpkit.InvalidInputError, "lower[0]"),
+        (lambda: ddpkit.Tightening(1.0, np.eye(4)), ddpkit.InvalidInputError, "beta"),
+        (lambda: ddpkit.Tightening(0.9, -np.eye(4)), ddpkit.InvalidInputError, "sigma_w"),
+        (lambda: ddpkit.Tightening(0.9, np.ones((4, 3))), ddpkit.ShapeError, "sigma_w"),
+        (lambda: ddpkit.Tightening(0.9, np.eye(4), gains="sometimes"), ddpkit.InvalidInputError, "gains"),
+        (lambda: ddpkit.Tightening(0.9, np.eye(4), update_every=0), ddpkit.InvalidInputError, "update_every"),
+        (lambda: ddpkit.SafeCddpSolver(p3_problem(), ["circle"]), ddpkit.InvalidInputError, "constraints[0]"),
+        (
+            lambda: ddpkit.SafeCddpSolver(p3_problem(), [ddpkit.Circle((0.0, 0.0), 1.0, indices=(0, 7))]),
+            ddpkit.InvalidInputError,
+            "constraints[0].indices[1]",
+        ),
+        (
+            lambda: ddpkit.SafeCddpSolver(p3_problem(), [ddpkit.StateBox([0.0] * 3, [1.0] * 3)]),
+            ddpkit.ShapeError,
+            "constraints[0].lower",
+        ),
+        (
+            lambda: ddpkit.SafeCddpSolver(p3_problem(), [], tightening=ddpkit.Tightening(0.9, np.eye(3))),
+            ddpkit.ShapeError,
+            "tightening.sigma_w",
+        ),
+        (lambda: ddpkit.SafeCddpSolver(p3_problem(), [], qp_method="osqp"), ddpkit.InvalidInputError, "qp_method"),
+        (lambda: ddpkit.SafeCddpSolver(p3_problem(), [], max_iterations=0), ddpkit.InvalidInputError, "max_iterations"),
+        (lambda: ddpkit.Mpc(p3_problem(), [], np.eye(4), goal=[3.0, 3.0]), ddpkit.ShapeError, "goal"),
+        (lambda: ddpkit.Mpc(p3_problem(), [], np.eye(4), goal=[3.0] * 4, iterations=0), ddpkit.InvalidInputError, "iterations"),
+    ],
+)
+def test_bad_input_names_the_field(make, error, field: str) -> None:
+    with pytest.raises(error) as info:
+        make()
+    assert field in str(info.value) or field in str(getattr(info.value, "field", "")), str(info.value)
+
+
+def test_bad_initial_guess_and_horizon() -> None:
+    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles())
+    with pytest.raises(ddpkit.ShapeError):
+        solver.solve(us0=np.zeros((3, 2)))
+    with pytest.raises(ddpkit.NotFiniteError):
+        solver.solve(us0=np.full((100, 2), np.nan))
+    with pytest.raises(ddpkit.InvalidInputError):
+        solver.set_horizon(0)
+    with pytest.raises(ddpkit.InvalidInputError):
+        solver.set_horizon(101)

@@ -8,8 +8,9 @@ use std::path::PathBuf;
 use ddp_core::{reference, Method, Problem, Settings, Solver, Status};
 
 fn golden_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/golden")
+    // Relative to the package root (cargo runs tests there): a path baked in at compile time would
+    // point at a stale checkout when a build cache is shared between clones.
+    PathBuf::from("tests/golden")
         .join(format!("{name}.txt"))
 }
 

@@ -78,7 +78,7 @@ fn iteration(c: &mut Criterion) {
 }
 
 fn peers(c: &mut Criterion) {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/problems");
+    let dir = std::path::PathBuf::from("../../bench/problems"); // cargo runs benches in the package root
     let mut group = c.benchmark_group("peers");
     for (label, file) in [("p2", "p2_car4.json"), ("p3", "p3_point4.json")] {
         let Ok(p) = BenchmarkProblem::from_file(dir.join(file)) else {

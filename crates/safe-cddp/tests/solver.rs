@@ -10,7 +10,8 @@ use safe_cddp::qp::QpMethod;
 use safe_cddp::{Constraint, SafeCddpSolver, Settings, Status};
 
 fn problems_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/problems")
+    // Relative to the package root, where cargo runs tests.
+    std::path::PathBuf::from("../../bench/problems")
 }
 
 #[test]

@@ -12,6 +12,10 @@
 //! | [`problem`] | `Problem` |
 //! | [`solver`] | `Solver`, `Solution`, `default_settings` |
 //! | [`safe`] | `Constraint` and the constraints, `Tightening`, `SafeCddpSolver`, `SafeSolution`, `Mpc`, `Episode` (Safe-CDDP) |
+//! | [`idnp`] | `IdnpRun`, `IdnpExperiment`, `idnp_run`, `idnp_experiment`, `idnp_scene`, `idnp_configuration` (public as `ddpkit.idnp`) |
+//! | [`subgoal`] | `subgoal_generate_dataset`, `subgoal_sample`: the DDPEN sub-goal dataset (public as `ddpkit.subgoal`) |
+//! | [`subgoal_model`] | `SubgoalModel`: the DDPEN sub-goal network in Rust (public as `ddpkit.subgoal.SubgoalModel`) |
+//! | [`sim`] | `SimResult`, `TurtlebotExperiment`, `sim_run_scenario`, `sim_safe_turtlebot` (public as `ddpkit.sim`) |
 //! | [`bezier`] | `Bezier`, `Spline`, `SigmoidProfile`, `Trajectory`, costs, `optimize_spline` (public as `ddpkit.bezier`) |
 
 #[macro_use]
@@ -20,10 +24,14 @@ pub mod bezier;
 pub mod convert;
 pub mod costs;
 pub mod errors;
+pub mod idnp;
 pub mod models;
 pub mod problem;
 pub mod safe;
+pub mod sim;
 pub mod solver;
+pub mod subgoal;
+pub mod subgoal_model;
 
 use pyo3::prelude::*;
 
@@ -61,6 +69,10 @@ fn _ddpkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(supported_dimensions, m)?)?;
     bezier::register(m)?;
     safe::register(m)?;
+    sim::register(m)?;
+    idnp::register(m)?;
+    subgoal::register(m)?;
+    subgoal_model::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -46,7 +46,7 @@ impl Default for ExperimentConfig {
         Self {
             seed: 1,
             initial_conditions: 200,
-            region: [[1.2, -2.0], [3.6, 2.0]],
+            region: [[1.2, -2.0], [3.6, 3.2]],
             optimizer_iterations: 400,
             uniform_level: None,
             settings: IdnpSettings::default(),

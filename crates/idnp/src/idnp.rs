@@ -12,6 +12,13 @@
 //! - waypoints `z_j` whose inverse mapping fails (time `t_j`, the NLP is skipped), and
 //! - TCP positions `tcp(x_k)` of knots where the optimised trajectory collides (time `k dt`).
 //!
+//! After the splits, a grid that changed is 2:1-balanced ([`QuadGrid::balance`]): a leaf next
+//! to one more than a level deeper is split too. Without it, a coarse leaf beside the refined
+//! cells keeps interpolating its value from far corners (one inside an obstacle, say), and the DP
+//! keeps returning to the refined cell of an infeasible waypoint although the free space lies
+//! just across the edge (found on case 191 of the seed-1 experiment, which the fixed grid solved
+//! and the unbalanced adaptive grid did not).
+//!
 //! Since our NLP carries the collision rows as constraints, it may also end collision-free but
 //! short of its waypoints; then the waypoints it missed by more than
 //! [`crate::nlp::NlpSettings::tracking_tolerance`] count as infeasible, and when it met them all
@@ -233,20 +240,18 @@ pub struct Idnp {
 }
 
 impl Idnp {
-    /// Validates the input and builds the initial grids (`T + 1` of them). `x0` must be at rest
-    /// or moving; its TCP must lie in the DP domain.
+    /// Validates the input and builds the initial grids (`T + 1` of them). `x0` (at rest or
+    /// moving) must be finite, within the joint and base limits and collision-free, with its TCP
+    /// in the DP domain; otherwise the error names `x0` and the reason.
     pub fn new(scene: Arc<Scene>, settings: IdnpSettings, variant: Variant, x0: Vector<10>) -> Result<Self> {
         settings.validate(&scene)?;
-        ddp_core::error::check_finite("x0", x0.iter())?;
-        let z0 = scene.robot.tcp_position(&x0);
-        if !scene.domain.contains(z0) {
-            return Err(Error::invalid("x0", format!("its TCP {z0:?} is outside the DP domain")));
-        }
+        check_initial_state(&scene, &x0)?;
+        let q0: Config = x0.fixed_rows::<5>(0).into_owned();
         let grid = QuadGrid::uniform(scene.domain, settings.initial_level, settings.max_level)?;
         let grids = vec![grid; settings.dp.stages + 1];
         let extra = vec![HashMap::new(); grids.len()];
         Ok(Self {
-            q0: x0.fixed_rows::<5>(0).into_owned(),
+            q0,
             scene,
             settings,
             variant,
@@ -401,6 +406,34 @@ impl Idnp {
     }
 }
 
+/// Checks an initial state: finite, its TCP in the DP domain, within the joint and base limits
+/// and collision-free. The error names `x0` and the reason.
+pub fn check_initial_state(scene: &Scene, x0: &Vector<10>) -> Result<()> {
+    ddp_core::error::check_finite("x0", x0.iter())?;
+    let z0 = scene.robot.tcp_position(x0);
+    if !scene.domain.contains(z0) {
+        return Err(Error::invalid("x0", format!("its TCP {z0:?} is outside the DP domain")));
+    }
+    let q0: Config = x0.fixed_rows::<5>(0).into_owned();
+    if let Some(which) = scene.limit_violation(&q0) {
+        return Err(Error::invalid(
+            "x0",
+            format!("the initial configuration violates the {which} limit"),
+        ));
+    }
+    let (clearance, body, obstacle) = scene.clearance(x0);
+    if clearance < 0.0 {
+        return Err(Error::invalid(
+            "x0",
+            format!(
+                "the initial configuration collides: {body:?} penetrates obstacles[{obstacle}] by {:.3} m",
+                -clearance
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// The leaves of `grid` meeting the square of half-side `radius` around `z` (none outside the
 /// domain).
 fn leaves_near(grid: &QuadGrid, z: [f64; 2], radius: f64) -> Vec<usize> {
@@ -414,7 +447,10 @@ fn leaves_near(grid: &QuadGrid, z: [f64; 2], radius: f64) -> Vec<usize> {
 /// Refinement, eq. (6): for every infeasible point `(j, z)` splits the leaves of `grids[j]` and
 /// `grids[j + 1]` (when it exists) that meet the square of half-side `radius` around `z` (with
 /// `radius = 0`: the closed cells containing `z`). Each leaf is split once however many points
-/// name it. Returns the number of cells split.
+/// name it. A grid that changed is then 2:1-balanced ([`QuadGrid::balance`]): neighbours of the
+/// refined cells are split until adjacent leaves differ by at most one level, so that the values
+/// interpolated next to a refined region come from grid points as close as the region's. Returns
+/// the number of cells split, balancing included.
 pub fn refine(grids: &mut [QuadGrid], points: &[(usize, [f64; 2])], radius: f64) -> usize {
     let mut per_grid: Vec<Vec<usize>> = vec![Vec::new(); grids.len()];
     for &(j, z) in points {
@@ -428,7 +464,18 @@ pub fn refine(grids: &mut [QuadGrid], points: &[(usize, [f64; 2])], radius: f64)
             }
         }
     }
-    grids.iter_mut().zip(&per_grid).map(|(g, cells)| g.split(cells)).sum()
+    grids
+        .iter_mut()
+        .zip(&per_grid)
+        .map(|(g, cells)| {
+            let split = g.split(cells);
+            if split > 0 {
+                split + g.balance()
+            } else {
+                0
+            }
+        })
+        .sum()
 }
 
 /// Penalty adaptation of the original IDNP: for every infeasible point `(j, z)` adds `increment`
@@ -476,6 +523,7 @@ pub fn optimizer_alone(
     max_iterations: usize,
 ) -> Result<NlpOutcome> {
     settings.validate(scene)?;
+    check_initial_state(scene, x0)?;
     let q0: Config = x0.fixed_rows::<5>(0).into_owned();
     let z0 = scene.robot.tcp_position(x0);
     let g = scene.goal.center;

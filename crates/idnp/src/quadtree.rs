@@ -298,11 +298,16 @@ impl QuadGrid {
         ))
     }
 
-    /// The bilinear interpolation at `p` of `values` (one per vertex); `None` outside the domain.
+    /// The bilinear interpolation at `p` of `values` (one per vertex); `None` outside the domain
+    /// or when `values` has fewer entries than the grid has vertices.
     #[inline]
     pub fn interpolate(&self, values: &[f64], p: [f64; 2]) -> Option<f64> {
         let (_, w) = self.weights(p)?;
-        Some(w.iter().map(|&(v, a)| a * values[v]).sum())
+        let mut sum = 0.0;
+        for &(v, a) in &w {
+            sum += a * values.get(v)?;
+        }
+        Some(sum)
     }
 
     /// Splits the given cells (the splitting operator of Section IV). Cells that are not leaves,
@@ -334,6 +339,52 @@ impl QuadGrid {
             self.rebuild();
         }
         count
+    }
+
+    /// Restores the 2:1 balance of the grid: splits every leaf that touches (by an edge or a
+    /// corner) a leaf more than one level deeper, until none does. Returns the number of cells
+    /// split.
+    ///
+    /// Why: a value inside a leaf is interpolated from the leaf's four corners only. A coarse leaf
+    /// next to a refined region keeps the values of its far corners (one of them, say, inside an
+    /// obstacle) while its neighbour is resolved finely, so the DP would see the coarse side as
+    /// expensive and keep choosing the refined cell even when the free space lies across the edge.
+    /// Grading the refinement (neighbours differ by at most one level) spreads it to where the
+    /// interpolation draws its values from.
+    pub fn balance(&mut self) -> usize {
+        let mut total = 0;
+        let eps = self.domain.cell_size / (1u64 << (self.max_level.min(MAX_LEVEL - 2) + 2)) as f64;
+        loop {
+            let mut to_split: Vec<CellId> = Vec::new();
+            for &id in &self.leaves {
+                let Some(c) = self.cell(id) else { continue };
+                if c.level < 2 {
+                    continue;
+                }
+                let reach = 0.5 * c.size + eps;
+                for (dx, dy) in [
+                    (-1.0, -1.0),
+                    (0.0, -1.0),
+                    (1.0, -1.0),
+                    (-1.0, 0.0),
+                    (1.0, 0.0),
+                    (-1.0, 1.0),
+                    (0.0, 1.0),
+                    (1.0, 1.0),
+                ] {
+                    let p = [c.center[0] + dx * reach, c.center[1] + dy * reach];
+                    if let Some(n) = self.locate(p) {
+                        if self.nodes[n].level + 1 < c.level && !to_split.contains(&n) {
+                            to_split.push(n);
+                        }
+                    }
+                }
+            }
+            if to_split.is_empty() {
+                return total;
+            }
+            total += self.split(&to_split);
+        }
     }
 
     /// Splits the leaf containing each point (outside points are skipped); returns the number of

@@ -142,3 +142,47 @@ fn interpolation_is_exact_for_bilinear_functions() {
     }
     assert!(grid.interpolate(&values, [5.0, 0.0]).is_none());
 }
+
+/// Every pair of touching leaves (sharing an edge or a corner) differs by at most `max_diff`
+/// levels; checked by brute force over all pairs.
+fn max_level_jump(grid: &QuadGrid) -> u8 {
+    let tol = 1e-12;
+    let cells: Vec<_> = grid.leaves().iter().map(|&l| grid.cell(l).unwrap()).collect();
+    let mut worst = 0;
+    for a in &cells {
+        for b in &cells {
+            let (alo, ahi, blo, bhi) = (a.min(), a.max(), b.min(), b.max());
+            let touch =
+                alo[0] <= bhi[0] + tol && blo[0] <= ahi[0] + tol && alo[1] <= bhi[1] + tol && blo[1] <= ahi[1] + tol;
+            if touch {
+                worst = worst.max(a.level.abs_diff(b.level));
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn balance_grades_the_refinement_and_keeps_coverage() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut grid = QuadGrid::new(domain(), 5).unwrap();
+    // Refine towards one point four times: an unbalanced chain of levels 1..4 next to level 0.
+    let p = [-0.49, 2.51];
+    for _ in 0..4 {
+        grid.split_at(&[p]);
+    }
+    assert_eq!(grid.depth(), 4);
+    assert!(max_level_jump(&grid) > 1);
+    let before = grid.leaf_count();
+    let split = grid.balance();
+    assert!(split > 0);
+    assert_eq!(grid.leaf_count(), before + 3 * split);
+    assert_eq!(max_level_jump(&grid), 1);
+    assert_eq!(grid.depth(), 4, "balancing never deepens the grid");
+    assert_covers(&grid, &mut rng);
+    // Balanced already: nothing to do; a grid refined by one level is balanced.
+    assert_eq!(grid.balance(), 0);
+    let mut one = QuadGrid::new(domain(), 5).unwrap();
+    one.split_at(&[p]);
+    assert_eq!(one.balance(), 0);
+}

@@ -13,11 +13,14 @@
 //! | [`world`] | rapier2d world, robot, controller, lidar, collisions |
 //! | [`perception`] | lidar -> costmap -> distance field, inflation |
 //! | [`planner`] | DDP (eqs. 3-7, 4 epochs per cycle, shifted warm start) and DDP with an A* guess |
+//! | [`ddpen`] | DDPEN: sub-goal sources (A* oracle, network), the sub-goal cost (eqs. 8-9), map frame |
 //! | [`run`] | the loop, [`RunConfig`], [`RunResult`], observers |
 //! | [`log`] | MCAP logs with Foxglove schemas |
 //! | [`plot`] | PNG top views like the paper's Fig. 5 |
 //! | [`table`] | the paper's Table I |
+//! | [`traps`] | seeded random trap maps (U, L, cube clusters, cylinder cups) for `trap-bench` |
 //! | [`batch`] | parallel runs with progress bar, logs and figures (the binaries) |
+//! | [`turtlebot`] | the Safe-CDDP Turtlebot experiment (paper 003, §IV-C, Fig. 5): CDDP vs Safe-CDDP |
 //!
 //! ```no_run
 //! let scenario = sim2d::Scenario::from_file("scenarios/cylinders.toml")?;
@@ -27,6 +30,7 @@
 //! ```
 
 pub mod batch;
+pub mod ddpen;
 pub mod error;
 pub mod log;
 pub mod perception;
@@ -36,6 +40,8 @@ pub mod route;
 pub mod run;
 pub mod scenario;
 pub mod table;
+pub mod traps;
+pub mod turtlebot;
 pub mod world;
 
 pub use error::{Error, Result};

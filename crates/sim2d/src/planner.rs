@@ -62,8 +62,13 @@ pub struct DdpParams {
     pub margin: f64,
     /// `eps` of the smooth distances (m).
     pub eps: f64,
-    /// `w_s`, sub-goal distance (eq. 9; DDPEN only).
+    /// `w_s`, sub-goal distance (eq. 9; DDPEN only), per sub-goal.
     pub w_subgoal: f64,
+    /// DDPEN: ask for new sub-goals every this many planning cycles (the cadence of inference).
+    pub subgoal_every: usize,
+    /// DDPEN: the sub-goal model's weights (`None`: the shipped default; see
+    /// [`crate::ddpen::intern_path`] to make a `&'static Path`).
+    pub subgoal_model: Option<&'static std::path::Path>,
     /// Lower speed bound of the plan (m/s; negative allows reversing).
     pub v_min: f64,
     /// Upper speed bound (m/s).
@@ -87,6 +92,8 @@ impl Default for DdpParams {
             margin: 0.9,
             eps: 0.05,
             w_subgoal: 1.0,
+            subgoal_every: 1,
+            subgoal_model: None,
             v_min: 0.0,
             v_max: 1.5,
             w_max: 0.5,
@@ -103,6 +110,9 @@ impl DdpParams {
         }
         if self.epochs == 0 {
             return Err(Error::invalid("ddp.epochs", "must be at least 1"));
+        }
+        if self.subgoal_every == 0 {
+            return Err(Error::invalid("ddp.subgoal_every", "must be at least 1"));
         }
         check_positive("ddp.dt", self.dt)?;
         check_positive("ddp.eps", self.eps)?;
@@ -150,8 +160,11 @@ pub struct Plan {
     pub controls: Vec<[f64; 2]>,
     /// Compute time of each optimisation epoch of this cycle (s).
     pub epoch_seconds: Vec<f64>,
-    /// Compute time of this cycle outside the epochs: problem set-up, initial guess (s).
+    /// Compute time of this cycle outside the epochs: problem set-up, initial guess, sub-goals (s).
     pub setup_seconds: f64,
+    /// Of `setup_seconds`, the time spent computing sub-goals (A* or network; DDPEN only; 0 in
+    /// cycles that reuse the previous sub-goals).
+    pub subgoal_seconds: f64,
     /// Cost after the last epoch.
     pub cost: f64,
     /// Status of the last epoch's solve.
@@ -176,17 +189,28 @@ pub enum PlannerKind {
     Ddp,
     /// DDP with an A* initial guess every cycle.
     DdpAstar,
+    /// DDPEN: DDP with the sub-goal cost (eqs. 8-9), sub-goals from the network.
+    Ddpen,
+    /// DDPEN with oracle sub-goals: path steps 30, 50, 70 of A* on the live costmap.
+    DdpenOracle,
 }
 
 impl PlannerKind {
     /// All kinds.
-    pub const ALL: [PlannerKind; 2] = [PlannerKind::Ddp, PlannerKind::DdpAstar];
+    pub const ALL: [PlannerKind; 4] = [
+        PlannerKind::Ddp,
+        PlannerKind::DdpAstar,
+        PlannerKind::Ddpen,
+        PlannerKind::DdpenOracle,
+    ];
 
     /// The command-line name.
     pub fn name(&self) -> &'static str {
         match self {
             PlannerKind::Ddp => "ddp",
             PlannerKind::DdpAstar => "ddp-astar",
+            PlannerKind::Ddpen => "ddpen",
+            PlannerKind::DdpenOracle => "ddpen-oracle",
         }
     }
 
@@ -203,11 +227,14 @@ impl PlannerKind {
         })
     }
 
-    /// Builds the planner.
+    /// Builds the planner (`ddpen` loads its model once per process, see
+    /// [`crate::ddpen::load_model`]).
     pub fn build(&self, params: &DdpParams) -> Result<Box<dyn Planner>> {
         Ok(match self {
             PlannerKind::Ddp => Box::new(DdpPlanner::new(*params)?),
             PlannerKind::DdpAstar => Box::new(AstarDdpPlanner::new(*params)?),
+            PlannerKind::Ddpen => Box::new(crate::ddpen::DdpenPlanner::network(*params)?),
+            PlannerKind::DdpenOracle => Box::new(crate::ddpen::DdpenPlanner::oracle(*params)?),
         })
     }
 }
@@ -274,6 +301,11 @@ impl DdpPlanner {
         &self.params
     }
 
+    /// The last plan, for wrappers that add to its timings.
+    pub(crate) fn plan_mut(&mut self) -> &mut Plan {
+        &mut self.plan
+    }
+
     /// Sub-goals `x_s` for the next plans (eqs. 8-9), each weighted by `w_subgoal`; empty for
     /// vanilla DDP.
     pub fn set_subgoals(&mut self, subgoals: &[[f64; 2]]) -> Result<()> {
@@ -293,7 +325,7 @@ impl DdpPlanner {
     }
 
     /// Warm start (Fig. 6): drop the executed knots, repeating the last control.
-    fn warm_start(&mut self, steps: usize) {
+    pub(crate) fn warm_start(&mut self, steps: usize) {
         if !self.started {
             self.solver.reset();
             self.started = true;
@@ -333,7 +365,7 @@ impl DdpPlanner {
     }
 
     /// One cycle from the current initial guess: `epochs` solves of one iteration each.
-    fn optimise(&mut self, request: &PlanRequest<'_>, setup_start: Instant) -> Result<&Plan> {
+    pub(crate) fn optimise(&mut self, request: &PlanRequest<'_>, setup_start: Instant) -> Result<&Plan> {
         let problem = self.build_problem(request)?;
         self.plan.setup_seconds += setup_start.elapsed().as_secs_f64();
         self.plan.epoch_seconds.clear();
@@ -422,34 +454,42 @@ impl AstarDdpPlanner {
 
     /// Pure-pursuit rollout of the unicycle along `self.path` into `self.guess`.
     fn guess_from_path(&mut self, state: [f64; 3]) {
-        let p = self.ddp.params;
-        let model = Unicycle::new(p.dt).expect("validated dt");
-        let mut x = Vector::<3>::new(state[0], state[1], state[2]);
-        let mut nearest = 0;
-        for u in self.guess.iter_mut() {
-            // Advance the nearest path index, then look ahead along the path.
-            while nearest + 1 < self.path.len()
-                && dist2(self.path[nearest + 1], [x[0], x[1]]) <= dist2(self.path[nearest], [x[0], x[1]])
-            {
-                nearest += 1;
-            }
-            let mut target = nearest;
-            while target + 1 < self.path.len() && dist2(self.path[target], [x[0], x[1]]).sqrt() < self.lookahead {
-                target += 1;
-            }
-            let q = self.path[target];
-            let (dx, dy) = (q[0] - x[0], q[1] - x[1]);
-            let remaining = dx.hypot(dy);
-            let alpha = wrap(dy.atan2(dx) - x[2]);
-            let w = (2.0 * alpha).clamp(-p.w_max, p.w_max);
-            let at_end = target + 1 == self.path.len();
-            let mut v = p.v_max * alpha.cos().max(0.0);
-            if at_end {
-                v = v.min(remaining / p.dt);
-            }
-            *u = Vector::<2>::new(v.clamp(p.v_min.max(0.0), p.v_max), w);
-            x = model.step(&x, u);
+        pursuit_guess(&self.ddp.params, state, &self.path, self.lookahead, &mut self.guess);
+    }
+}
+
+/// Pure-pursuit rollout of the unicycle from `state` along the polyline `path` (look-ahead
+/// `lookahead` m) into `guess` (one control per knot): it turns in place while the look-ahead
+/// point is more than 90 degrees off the heading.
+pub(crate) fn pursuit_guess(p: &DdpParams, state: [f64; 3], path: &[[f64; 2]], lookahead: f64, guess: &mut [Vector<2>]) {
+    let model = Unicycle::new(p.dt).expect("validated dt");
+    let mut x = Vector::<3>::new(state[0], state[1], state[2]);
+    let mut nearest = 0;
+    if path.is_empty() {
+        guess.fill(Vector::<2>::zeros());
+        return;
+    }
+    for u in guess.iter_mut() {
+        // Advance the nearest path index, then look ahead along the path.
+        while nearest + 1 < path.len() && dist2(path[nearest + 1], [x[0], x[1]]) <= dist2(path[nearest], [x[0], x[1]]) {
+            nearest += 1;
         }
+        let mut target = nearest;
+        while target + 1 < path.len() && dist2(path[target], [x[0], x[1]]).sqrt() < lookahead {
+            target += 1;
+        }
+        let q = path[target];
+        let (dx, dy) = (q[0] - x[0], q[1] - x[1]);
+        let remaining = dx.hypot(dy);
+        let alpha = wrap(dy.atan2(dx) - x[2]);
+        let w = (2.0 * alpha).clamp(-p.w_max, p.w_max);
+        let at_end = target + 1 == path.len();
+        let mut v = p.v_max * alpha.cos().max(0.0);
+        if at_end {
+            v = v.min(remaining / p.dt);
+        }
+        *u = Vector::<2>::new(v.clamp(p.v_min.max(0.0), p.v_max), w);
+        x = model.step(&x, u);
     }
 }
 

@@ -12,6 +12,8 @@
 //! | [`grid::Edt`], [`grid::DistanceField`] | exact EDT, bilinear distance and gradient | eq. (7) |
 //! | [`DistanceFieldHinge`] | `w ReLU(d - dist(p))`, a [`ddp_core::TerminalCost`] | eq. (7) |
 //! | [`grid::AStar`] | 8-connected cost-aware A* | §II-D |
+//! | [`dataset`] | sub-goal dataset: random maps, A* sub-goals, safetensors shards | §II-D |
+//! | [`SubgoalModel`] ([`model`]) | the sub-goal network `x_s = SG(map, x_goal)` from safetensors weights (small CNN or EfficientNet encoder, transformer decoder) | §II-C, eq. (10) |
 //!
 //! ```
 //! use std::sync::Arc;
@@ -31,9 +33,12 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod dataset;
 pub mod error;
 pub mod grid;
 mod hinge;
+pub mod model;
 
 pub use error::{Error, Result};
 pub use hinge::DistanceFieldHinge;
+pub use model::SubgoalModel;

@@ -27,6 +27,14 @@ Safe-CDDP (paper 003): :class:`SafeCddpSolver` solves problems with constraints
 :mod:`ddpkit.bezier` has the Bézier toolkit of paper 002 (curves, splines through waypoints,
 motion profiles, trajectories as DDP references); :mod:`ddpkit.dqn` the DQN that shapes splines
 (needs torch, imported only there) and ``python -m ddpkit.train`` its training command.
+:mod:`ddpkit.idnp` runs IDNP with adaptive grid refinement (paper 001): DP on quadtree grids of
+the tool-centre point, inverse mapping, constrained DDP with collision constraints.
+
+:mod:`ddpkit.subgoal` has the DDPEN sub-goal dataset (generation in Rust, memory-mapped shards)
+and the sub-goal network running in Rust (``SubgoalModel``).
+
+:mod:`ddpkit.sim` runs sim2d scenarios (DDP planners in the loop, trajectory and metrics as
+arrays) and the simulated Safe-CDDP Turtlebot experiment (paper 003, §IV-C).
 """
 
 from ddpkit._ddpkit import (
@@ -70,6 +78,9 @@ from ddpkit._ddpkit import (
     supported_dimensions,
 )
 from ddpkit import bezier
+from ddpkit import idnp
+from ddpkit import sim
+from ddpkit import subgoal
 
 __all__ = [
     "ArmBase",
@@ -109,6 +120,9 @@ __all__ = [
     "Unicycle",
     "__version__",
     "bezier",
+    "idnp",
+    "sim",
+    "subgoal",
     "default_settings",
     "supported_dimensions",
 ]

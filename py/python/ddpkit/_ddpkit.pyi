@@ -4,6 +4,7 @@ Arrays are accepted as anything ``numpy.asarray(..., dtype=float64)`` understand
 real dtype, lists, tuples, scalars) and returned as new float64 ``numpy.ndarray``\\ s.
 """
 
+import os
 from collections.abc import Sequence
 from typing import Any, Optional, Union, overload
 
@@ -37,6 +38,8 @@ __all__ = [
     "DoubleIntegrator2D",
     "Dynamics",
     "Episode",
+    "IdnpExperiment",
+    "IdnpRun",
     "InvalidInputError",
     "LinearDynamics",
     "Mpc",
@@ -46,26 +49,38 @@ __all__ = [
     "QuadraticCost",
     "QuadraticTerminal",
     "Quadrotor",
+    "SUBGOAL_MAP_CELLS",
     "SafeCddpSolver",
     "SafeSolution",
     "ShapeError",
     "SigmoidProfile",
+    "SimResult",
     "SmoothDistance",
     "Solution",
     "Solver",
     "Spline",
     "SplineOptimizeResult",
     "StateBox",
+    "SubgoalModel",
     "TerminalSum",
     "Tightening",
     "Trajectory",
     "TrajectorySamples",
+    "TurtlebotExperiment",
     "Unicycle",
     "__version__",
     "arclen_batch",
     "default_settings",
+    "idnp_configuration",
+    "idnp_experiment",
+    "idnp_run",
+    "idnp_scene",
     "optimize_spline",
+    "sim_run_scenario",
+    "sim_safe_turtlebot",
     "spline_cost",
+    "subgoal_generate_dataset",
+    "subgoal_sample",
     "supported_dimensions",
 ]
 
@@ -1167,3 +1182,329 @@ class Episode:
     @property
     def us(self) -> _F64Array:
         """Applied controls, shape ``(steps, nu)``."""
+
+# --------------------------------------------------------------------------------------------
+# IDNP with adaptive grid refinement (paper 001), public as ddpkit.idnp
+# --------------------------------------------------------------------------------------------
+
+def idnp_scene() -> dict[str, Any]:
+    """The benchmark scene: ``obstacles`` (list of ``(k, 2)`` vertex arrays), ``goal_center``,
+    ``goal_radius``, ``passage`` (``(2, 2)``: corners of the narrow gap), ``domain_min``,
+    ``domain_max``, ``cell_size`` (coarse DP grid spacing), ``link_radius``, ``dt``."""
+
+def idnp_configuration(tcp: _ArrayLike) -> _F64Array:
+    """A collision-free configuration ``(x, y, theta, q1, q2)`` at rest with its tool centre point
+    at ``tcp`` (inverse mapping, eq. (5)). Raises :class:`InvalidInputError` naming ``tcp`` when
+    the point cannot be reached without a collision or a limit violation."""
+
+def idnp_run(q0: _ArrayLike, variant: str = "adaptive", max_iterations: int = 15, max_level: int = 4) -> IdnpRun:
+    """One IDNP run on the benchmark scene from ``q0`` (a configuration ``(5,)`` at rest or a
+    state ``(10,)``): ``variant="adaptive"`` (Algorithm 1, quadtree refinement) or ``"fixed"``
+    (the original IDNP, fixed grid with penalty adaptation). Releases the GIL."""
+
+@final
+class IdnpRun:
+    """The result of :func:`idnp_run`."""
+
+    @property
+    def variant(self) -> str:
+        """``"adaptive"`` or ``"fixed"``."""
+    @property
+    def success(self) -> bool:
+        """A collision-free trajectory to the goal, ending at rest, was found."""
+    @property
+    def termination(self) -> str:
+        """``"solved"``, ``"max_iterations"`` or ``"stalled"``."""
+    @property
+    def iterations(self) -> int:
+        """Iterations run."""
+    @property
+    def waypoints(self) -> list[_F64Array]:
+        """The DP waypoints of every iteration, each of shape ``(T + 1, 2)``."""
+    @property
+    def cells(self) -> list[int]:
+        """DP cells (quadtree leaves over all time indices) used by each iteration."""
+    @property
+    def grid_points(self) -> list[int]:
+        """DP grid points (stored values) used by each iteration."""
+    @property
+    def final_cells(self) -> int:
+        """Cells of the final grids."""
+    @property
+    def inverse_failures(self) -> list[tuple[int, int, tuple[float, float], str]]:
+        """Waypoints the inverse mapping could not map: ``(iteration, time index, (x, y), reason)``."""
+    @property
+    def dp_time(self) -> list[float]:
+        """Wall time (s) of the DP per iteration."""
+    @property
+    def inverse_time(self) -> list[float]:
+        """Wall time (s) of the inverse mapping per iteration."""
+    @property
+    def nlp_time(self) -> list[float]:
+        """Wall time (s) of the NLP per iteration (0 when it did not run)."""
+    @property
+    def xs(self) -> Optional[_F64Array]:
+        """States ``(N + 1, 10)`` of the last NLP solve (the solution when :attr:`success`), or
+        ``None`` when no waypoint sequence could be mapped."""
+    @property
+    def us(self) -> Optional[_F64Array]:
+        """Controls ``(N, 5)`` of the last NLP solve, or ``None``."""
+    def grid(self, j: int) -> _F64Array:
+        """Leaves of the final grid of time index ``j``, rows ``(center_x, center_y, size)``."""
+
+def idnp_experiment(
+    n: int = 200, seed: int = 1, max_iterations: int = 15, optimizer_iterations: int = 400, uniform: bool = False
+) -> IdnpExperiment:
+    """The experiment of paper 001, Section V: ``n`` seeded initial conditions, each solved by
+    fixed-grid IDNP, adaptive IDNP and the constrained DDP alone from a straight line
+    (``uniform=True`` adds fixed-grid IDNP on the uniform grid that resolves the passage).
+    Parallel, GIL released; results depend on ``seed`` only (wall times aside)."""
+
+@final
+class IdnpExperiment:
+    """The result of :func:`idnp_experiment`."""
+
+    @property
+    def cases(self) -> int:
+        """Initial conditions."""
+    @property
+    def solved_fixed(self) -> int:
+        """Successes of fixed-grid IDNP."""
+    @property
+    def solved_adaptive(self) -> int:
+        """Successes of adaptive IDNP."""
+    @property
+    def solved_optimizer(self) -> int:
+        """Successes of the optimiser alone."""
+    @property
+    def solved_uniform(self) -> Optional[int]:
+        """Successes on the uniform passage-resolving grid (``uniform=True``), else ``None``."""
+    @property
+    def fixed_not_adaptive(self) -> list[int]:
+        """Cases solved by the fixed grid but not by the adaptive one."""
+    @property
+    def coarse_cells(self) -> int:
+        """DP cells of the coarse grids (all time indices)."""
+    @property
+    def adaptive_cells_mean(self) -> float:
+        """Mean DP cells of the adaptive grids when they succeeded."""
+    @property
+    def adaptive_cells_max(self) -> float:
+        """Largest DP cell count of the adaptive grids when they succeeded."""
+    @property
+    def uniform_cells(self) -> Optional[int]:
+        """DP cells of the coarsest uniform grid that resolves the passage."""
+    @property
+    def fixed_success(self) -> list[bool]:
+        """Per case: fixed-grid success."""
+    @property
+    def adaptive_success(self) -> list[bool]:
+        """Per case: adaptive success."""
+    @property
+    def optimizer_success(self) -> list[bool]:
+        """Per case: success of the optimiser alone."""
+    @property
+    def initial_tcp(self) -> _F64Array:
+        """Initial TCP positions, shape ``(n, 2)``."""
+    def table(self) -> str:
+        """The table (Markdown) beside the paper's numbers, cell counts and times per iteration."""
+    def to_json(self) -> str:
+        """Every result as JSON (what ``idnp-experiment --json`` writes)."""
+
+# --------------------------------------------------------------------------------------------
+# sim2d: scenario runs and the Safe-CDDP Turtlebot experiment, public as ddpkit.sim
+# --------------------------------------------------------------------------------------------
+
+def sim_run_scenario(
+    scenario: Union[str, os.PathLike[str]],
+    planner: str = "ddp",
+    seed: Optional[int] = None,
+    direction: str = "forward",
+    max_time: Optional[float] = None,
+    horizon: Optional[int] = None,
+) -> SimResult:
+    """One scenario run (``ddpkit.sim.run_scenario``): ``scenario`` is a TOML file path or the TOML
+    text (a ``str`` with a newline or ``=``). Releases the GIL."""
+
+@final
+class SimResult:
+    """One simulated run: the trajectory (one row per control step of 0.1 s) and the metrics."""
+
+    @property
+    def scenario(self) -> str:
+        """Scenario name."""
+    @property
+    def planner(self) -> str:
+        """Planner name."""
+    @property
+    def direction(self) -> str:
+        """``"forward"`` or ``"backward"``."""
+    @property
+    def seed(self) -> int:
+        """Noise seed."""
+    @property
+    def outcome(self) -> str:
+        """``"completed"``, ``"stalled"`` (no progress for 30 simulated seconds) or ``"timeout"``."""
+    @property
+    def completed(self) -> bool:
+        """Whether the robot reached the end of the route."""
+    @property
+    def time(self) -> float:
+        """Simulated time at the end (s)."""
+    @property
+    def collisions(self) -> int:
+        """Contact onsets with obstacles."""
+    @property
+    def contact_time(self) -> float:
+        """Time in contact with obstacles (s)."""
+    @property
+    def progress(self) -> float:
+        """Largest progress along the route (m)."""
+    @property
+    def route_length(self) -> float:
+        """Route length (m)."""
+    @property
+    def distance(self) -> float:
+        """Path length driven (m)."""
+    @property
+    def real_time_factor(self) -> float:
+        """Simulated seconds per wall-clock second of the loop."""
+    @property
+    def final_pose(self) -> _F64Array:
+        """Final pose ``(x, y, theta)``, shape ``(3,)``."""
+    @property
+    def t(self) -> _F64Array:
+        """Time of each control step (s), shape ``(T,)``."""
+    @property
+    def x(self) -> _F64Array:
+        """Robot x at each control step (m), shape ``(T,)``."""
+    @property
+    def y(self) -> _F64Array:
+        """Robot y at each control step (m), shape ``(T,)``."""
+    @property
+    def theta(self) -> _F64Array:
+        """Robot heading at each control step (rad), shape ``(T,)``."""
+    @property
+    def v(self) -> _F64Array:
+        """Commanded speed at each control step (m/s), shape ``(T,)``."""
+    @property
+    def w(self) -> _F64Array:
+        """Commanded turn rate at each control step (rad/s), shape ``(T,)``."""
+    @property
+    def goals(self) -> _F64Array:
+        """Local goal at each control step, shape ``(T, 2)``."""
+    @property
+    def epoch_ms(self) -> _F64Array:
+        """Compute time of every optimisation epoch (ms), shape ``(E,)``."""
+    @property
+    def plan_times(self) -> _F64Array:
+        """Simulated time of each kept plan (one every 10 planning cycles), shape ``(P,)``."""
+    @property
+    def plan_lengths(self) -> npt.NDArray[np.int64]:
+        """Number of states of each kept plan (horizon + 1), shape ``(P,)``."""
+    @property
+    def plans(self) -> list[_F64Array]:
+        """The kept plans' positions, a list of ``(K, 2)`` arrays."""
+    def to_json(self) -> str:
+        """Every figure of the run (metrics, trajectory, plans, timings) as a JSON string."""
+
+def sim_safe_turtlebot(
+    runs: int = 100,
+    seed: Optional[int] = None,
+    beta: float = 0.8,
+    sigma_xy: Optional[float] = None,
+    sigma_theta: Optional[float] = None,
+    sigma_w_xy: Optional[float] = None,
+) -> TurtlebotExperiment:
+    """CDDP versus Safe-CDDP on the simulated Turtlebot (``ddpkit.sim.safe_turtlebot``). Releases
+    the GIL; the episodes run in parallel."""
+
+@final
+class TurtlebotExperiment:
+    """CDDP versus Safe-CDDP over the same seeded episodes (paper 003, §IV-C, Fig. 5)."""
+
+    @property
+    def runs(self) -> int:
+        """Episodes per controller."""
+    @property
+    def seed(self) -> int:
+        """Base seed."""
+    @property
+    def beta(self) -> float:
+        """Safe-CDDP's ``beta``."""
+    @property
+    def safe_wider(self) -> int:
+        """Episodes where Safe-CDDP kept the wider minimum clearance than CDDP under the same noise."""
+    def min_clearance(self, controller: str) -> _F64Array:
+        """Minimum footprint-to-obstacle clearance per episode (m), shape ``(runs,)``;
+        ``controller`` is ``"cddp"`` or ``"safe-cddp"``."""
+    def collisions(self, controller: str) -> npt.NDArray[np.int64]:
+        """Collisions (contact onsets) per episode, shape ``(runs,)``."""
+    def reached(self, controller: str) -> npt.NDArray[np.bool_]:
+        """Whether each episode reached the goal region, shape ``(runs,)``."""
+    def times(self, controller: str) -> _F64Array:
+        """Duration of each episode (s), shape ``(runs,)``."""
+    def poses(self, controller: str, index: int) -> _F64Array:
+        """True poses ``(x, y, theta)`` of episode ``index``, shape ``(steps + 1, 3)``."""
+    def to_json(self, with_paths: bool = False) -> str:
+        """Every figure (configuration, summaries, histograms, episodes) as a JSON string."""
+    def write_png(self, path: Union[str, os.PathLike[str]]) -> None:
+        """Draws the figure (paths and minimum-clearance histograms) to the PNG ``path``."""
+
+# --------------------------------------------------------------------------------------------
+# DDPEN sub-goal network (paper 000), public as ddpkit.subgoal.SubgoalModel
+# --------------------------------------------------------------------------------------------
+
+@final
+class SubgoalModel:
+    """The DDPEN sub-goal network ``x_s = SG(map, x_goal)`` run in Rust from the safetensors file
+    that ``python -m ddpkit.train subgoal`` exports (the architecture is in its header metadata).
+    Loading checks every tensor; errors are :class:`InvalidInputError` naming the tensor or field."""
+
+    def __new__(cls, path: Union[str, os.PathLike[str]]) -> Self: ...
+    @staticmethod
+    def default() -> SubgoalModel:
+        """The model shipped with ddpkit (the small CNN)."""
+    @staticmethod
+    def from_bytes(data: bytes) -> SubgoalModel:
+        """A model from the bytes of a safetensors file."""
+    @property
+    def num_subgoals(self) -> int:
+        """Sub-goals per prediction (3)."""
+    @property
+    def arch(self) -> str:
+        """The encoder: ``"cnn"`` or ``"efficientnet"``."""
+    @property
+    def in_size(self) -> int:
+        """Side of the square input costmap in cells (200)."""
+    def predict(self, costmap: npt.NDArray[np.uint8], goal: _ArrayLike) -> _F64Array:
+        """Sub-goals for a uint8 costmap ``(200, 200)`` (row ``iy``, column ``ix``) and a goal
+        ``(x, y)`` in metres relative to the map centre: ``(num_subgoals, 2)`` metres in the same
+        frame. Costmaps ``(n, 200, 200)`` with goals ``(n, 2)`` give ``(n, num_subgoals, 2)``.
+        Releases the GIL."""
+
+# --------------------------------------------------------------------------------------------
+# DDPEN sub-goal dataset (paper 000, §II-D), public as ddpkit.subgoal.generate_dataset / sample
+# --------------------------------------------------------------------------------------------
+
+SUBGOAL_MAP_CELLS: int
+"""Cells along each side of a dataset costmap (200, of 5 cm)."""
+
+def subgoal_generate_dataset(
+    out_dir: Union[str, os.PathLike[str]],
+    samples: int,
+    seed: int = 0,
+    shard_size: int = 5000,
+    threads: Optional[int] = None,
+) -> dict[str, Any]:
+    """Generates ``samples`` samples of ``seed`` into ``out_dir`` as safetensors shards of
+    ``shard_size`` samples and a ``manifest.json`` (written last). ``threads=None`` uses every
+    core; the bytes do not depend on it. Returns ``{"dir", "samples", "shards", "manifest",
+    "seconds"}``. The GIL is released while generating."""
+
+def subgoal_sample(
+    seed: int, index: int
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+    """Sample ``index`` of ``seed`` exactly as the dataset stores it: ``(costmap, goal, subgoals)``
+    with ``costmap`` ``uint8 (200, 200)`` indexed ``[iy, ix]``, ``goal`` ``float32 (2,)`` and
+    ``subgoals`` ``float32 (3, 2)`` in metres relative to the map centre."""

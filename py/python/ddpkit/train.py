@@ -11,6 +11,11 @@ Commands:
 
       python -m ddpkit.train dqn-eval --model runs/dqn --sets 100 --seed 123 --json eval.json
 
+- ``subgoal``: train the DDPEN sub-goal network of :mod:`ddpkit.subgoal_model` (paper 000) on
+  the shards of ``subgoal-dataset`` and export it as safetensors for the Rust inference::
+
+      python -m ddpkit.train subgoal --data DIR --out model.safetensors --epochs 2 --seed 0
+
 Each command is a :class:`Command` in :data:`COMMANDS`; add one with the :func:`command`
 decorator (a function that adds its options to an ``argparse`` parser, and one that runs it).
 Heavy imports (torch) happen inside ``run``, so ``--help`` stays fast and works without them.
@@ -138,6 +143,82 @@ def _dqn_eval(args: argparse.Namespace) -> int:
     print(dqn.format_table(report))
     if args.json:
         dqn._write_json(args.json, report)
+        print(f"wrote {args.json}")
+    return 0
+
+
+# ------------------------------------------------------------------------------------------------
+# subgoal
+# ------------------------------------------------------------------------------------------------
+
+
+def _positive_float(text: str) -> float:
+    v = float(text)
+    if not v > 0.0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {v}")
+    return v
+
+
+def _subgoal_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--data", required=True, help="dataset directory with shard-*.safetensors (subgoal-dataset)")
+    p.add_argument("--out", required=True, help="output safetensors file (written whole or not at all)")
+    p.add_argument("--epochs", type=_positive_int, default=2, help="passes over the training maps (default 2)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the initialisation and shuffling (default 0)")
+    p.add_argument(
+        "--arch",
+        choices=("cnn", "efficientnet_b0"),
+        default="cnn",
+        help="encoder: the small CNN (default) or torchvision EfficientNet-B0 with one input channel",
+    )
+    p.add_argument("--device", default="cpu", help="torch device: cpu (default) or cuda")
+    p.add_argument("--batch-size", type=_positive_int, default=64, help="samples per step (default 64)")
+    p.add_argument("--lr", type=_positive_float, default=2e-3, help="peak learning rate of the one-cycle schedule")
+    p.add_argument("--val-fraction", type=_positive_float, default=0.05, help="held-out share of the maps (default 0.05)")
+    p.add_argument("--max-samples", type=_positive_int, help="use only the first N samples of the dataset")
+    p.add_argument("--threads", type=_positive_int, help="torch CPU threads (default: torch's choice)")
+    p.add_argument("--no-augment", action="store_true", help="no random symmetries of the square")
+    p.add_argument("--no-preload", action="store_true", help="gather batches from the memory-mapped shards (less RAM)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", metavar="PATH", help="also write the training summary as JSON")
+
+
+@command("subgoal", "train the DDPEN sub-goal network (paper 000) and export it as safetensors", _subgoal_arguments)
+def _subgoal(args: argparse.Namespace) -> int:
+    from ddpkit import subgoal_model as sm
+
+    if not 0.0 < args.val_fraction < 1.0:
+        print(f"error: --val-fraction: must be in (0, 1), got {args.val_fraction}", file=sys.stderr)
+        return 2
+    if args.arch == "cnn":
+        model_config = sm.SubgoalConfig()
+    else:
+        model_config = sm.SubgoalConfig(arch="efficientnet", efficientnet=sm.efficientnet_spec("b0"))
+    config = sm.TrainConfig(
+        data=args.data,
+        out=args.out,
+        epochs=args.epochs,
+        seed=args.seed,
+        device=args.device,
+        batch_size=args.batch_size,
+        lr=args.lr,
+        val_fraction=args.val_fraction,
+        max_samples=args.max_samples,
+        augment=not args.no_augment,
+        preload=not args.no_preload,
+        threads=args.threads,
+        progress=not args.no_progress,
+        model=model_config,
+    )
+    try:
+        result = sm.train(config)
+    except (ValueError, OSError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(sm.format_result(result))
+    if args.json:
+        from ddpkit import dqn
+
+        dqn._write_json(args.json, sm.result_dict(result))
         print(f"wrote {args.json}")
     return 0
 

@@ -3,7 +3,8 @@
 //! grid never solves fewer cases than the fixed one, and writes a figure like Fig. 3.
 //!
 //! ```text
-//! cargo run --release -p idnp --bin idnp-experiment -- --seed 1 --n 200 --json out/idnp.json --png out/idnp_fig3.png
+//! cargo run --release -p idnp --bin idnp-experiment -- --seed 1 --n 200 --optimizer-iterations 100 \
+//!     --json crates/idnp/results/experiment.json --png crates/idnp/results/fig3.png
 //! ```
 
 use std::path::PathBuf;
@@ -30,6 +31,9 @@ struct Args {
     /// Iterations of the IDNP loop per case (the paper: 15).
     #[arg(long, default_value_t = 15)]
     iterations: usize,
+    /// Region of the initial TCP positions: `x_min y_min x_max y_max` (m).
+    #[arg(long, num_args = 4, value_names = ["X_MIN", "Y_MIN", "X_MAX", "Y_MAX"], allow_negative_numbers = true)]
+    region: Option<Vec<f64>>,
     /// Iterations of the NLP alone.
     #[arg(long, default_value_t = 400)]
     optimizer_iterations: usize,
@@ -80,6 +84,9 @@ fn run(args: Args) -> Result<bool, String> {
         optimizer_iterations: args.optimizer_iterations,
         ..ExperimentConfig::default()
     };
+    if let Some(r) = &args.region {
+        config.region = [[r[0], r[1]], [r[2], r[3]]];
+    }
     config.settings.max_iterations = args.iterations;
     config.settings.penalize_at_max_level = !args.no_max_level_penalty;
     if args.uniform {

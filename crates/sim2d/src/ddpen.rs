@@ -1,0 +1,515 @@
+//! DDPEN (§II-B, §II-C): sub-goals `x_s` pull the DDP trajectory out of local minima through the
+//! sub-goal cost of eqs. (8)-(9),
+//!
+//! ```text
+//! l(x, u) = c_c(u) + c_g(x, x_goal) + c_o(x, obs) + sum_k w_s c_s(x, x_s^k),   c_s = sqrt(|p - x_s|^2 + eps^2)   (8), (9)
+//! ```
+//!
+//! added to every running knot of [`crate::planner::DdpPlanner`]'s problem. Where the sub-goals
+//! come from is a [`SubgoalSource`]:
+//!
+//! | source | planner | sub-goals |
+//! |---|---|---|
+//! | [`AstarSubgoals`] | `ddpen-oracle` | path steps 30, 50, 70 of a cost-aware 8-connected A* from the robot to the local goal on the current costmap (the labels the network imitates, §II-D) |
+//! | [`NetworkSubgoals`] | `ddpen` | the sub-goal network `SG_theta(map, x_goal)` of eq. (10) ([`subgoal_infer::SubgoalModel`]) |
+//!
+//! The costmap is world-aligned (its axes are the world's, not the robot's) and centred on the
+//! robot up to one cell (a rolling window on the world lattice). The network works in *map
+//! coordinates*: metres relative to the map centre, in map axes. [`MapFrame`] converts.
+//!
+//! [`DdpenPlanner`] asks its source every `subgoal_every` cycles (the cadence of inference) and
+//! keeps the sub-goals in between; their compute time is part of the cycle's set-up time.
+//!
+//! ```
+//! use sim2d::ddpen::MapFrame;
+//! use subgoal_infer::grid::GridGeometry;
+//! let g = GridGeometry::ddpen([10.02, -3.0]);
+//! let frame = MapFrame::of(&g);
+//! let q = frame.to_map([12.0, -3.5]);
+//! assert_eq!(frame.to_world(q), [12.0, -3.5]);
+//! ```
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::Instant;
+
+use subgoal_infer::grid::{AStar, AStarParams, Costmap, GridGeometry};
+use subgoal_infer::SubgoalModel;
+
+use crate::error::{Error, Result};
+use crate::perception::Perception;
+use crate::planner::{pursuit_guess, DdpParams, DdpPlanner, Plan, PlanRequest, Planner};
+use ddp_core::Vector;
+
+/// Path steps of the A* oracle's sub-goals (§II-D: 30, 50 and 70).
+pub const ORACLE_STEPS: [usize; 3] = [30, 50, 70];
+
+/// World <-> map coordinates of a costmap: map coordinates are metres relative to the map's
+/// centre ([`GridGeometry::center`]), in map axes (`x` along the columns `ix`, `y` along the rows
+/// `iy`; the same as the world's axes, since the costmap is world-aligned).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapFrame {
+    center: [f64; 2],
+}
+
+impl MapFrame {
+    /// The frame of a costmap with this geometry.
+    pub fn of(geometry: &GridGeometry) -> Self {
+        Self {
+            center: geometry.center(),
+        }
+    }
+
+    /// World position of the map centre.
+    pub fn center(&self) -> [f64; 2] {
+        self.center
+    }
+
+    /// Map coordinates of world point `p` (what the network takes).
+    pub fn to_map(&self, p: [f64; 2]) -> [f32; 2] {
+        [(p[0] - self.center[0]) as f32, (p[1] - self.center[1]) as f32]
+    }
+
+    /// World point of map coordinates `q` (what the network returns).
+    pub fn to_world(&self, q: [f32; 2]) -> [f64; 2] {
+        [self.center[0] + q[0] as f64, self.center[1] + q[1] as f64]
+    }
+}
+
+/// Width of the border band in which a blocked local goal is moved (cells): the dataset's goals
+/// lie within 0.5 m of the border.
+pub const GOAL_BAND_CELLS: usize = 10;
+
+/// The local goal as the sub-goal sources see it. The route's local goal lies on the costmap's
+/// border (§II-E) and may fall inside an obstacle, or in a region the robot cannot reach, where A*
+/// has no path and the network has never seen a goal (its dataset's goals are reachable free
+/// cells near the border). [`GoalRepair::repair`] keeps a reachable free goal and otherwise moves
+/// it to the nearest cell that the robot can reach (a flood fill through cells cheaper than
+/// `blocked`) within [`GOAL_BAND_CELLS`] of the border when the goal is in that band (so that the
+/// path leads round the obstacle rather than into a pocket in front of it), or anywhere when the
+/// goal lies further inside (the route's end). Buffers are allocated on the first call.
+#[derive(Debug, Clone, Default)]
+pub struct GoalRepair {
+    reached: Vec<bool>,
+    queue: std::collections::VecDeque<(usize, usize)>,
+}
+
+impl GoalRepair {
+    /// The cell to aim for from `start` towards `goal` on `map` (see the type's docs); `None`
+    /// when the robot can reach no other cell.
+    pub fn repair(&mut self, map: &Costmap, start: [f64; 2], goal: [f64; 2], blocked: u8) -> Option<(usize, usize)> {
+        let g = map.geometry();
+        let (w, h) = (g.width(), g.height());
+        let s = g.world_to_cell_clamped(start);
+        let cell = g.world_to_cell_clamped(goal);
+        self.reached.clear();
+        self.reached.resize(w * h, false);
+        self.queue.clear();
+        self.reached[s.1 * w + s.0] = true;
+        self.queue.push_back(s);
+        while let Some((x, y)) = self.queue.pop_front() {
+            for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)] {
+                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                    continue;
+                }
+                let (nx, ny) = (nx as usize, ny as usize);
+                let i = ny * w + nx;
+                if !self.reached[i] && map.get(nx, ny) < blocked {
+                    self.reached[i] = true;
+                    self.queue.push_back((nx, ny));
+                }
+            }
+        }
+        if self.reached[cell.1 * w + cell.0] && cell != s {
+            return Some(cell);
+        }
+        let edge = |c: (usize, usize)| c.0.min(c.1).min(w - 1 - c.0).min(h - 1 - c.1);
+        let in_band = edge(cell) < GOAL_BAND_CELLS;
+        let mut best: Option<((usize, usize), usize)> = None;
+        for iy in 0..h {
+            for ix in 0..w {
+                if !self.reached[iy * w + ix] || (ix, iy) == s || (in_band && edge((ix, iy)) >= GOAL_BAND_CELLS) {
+                    continue;
+                }
+                let d2 = ix.abs_diff(cell.0).pow(2) + iy.abs_diff(cell.1).pow(2);
+                if best.is_none_or(|(_, b)| d2 < b) {
+                    best = Some(((ix, iy), d2));
+                }
+            }
+        }
+        best.map(|(c, _)| c)
+    }
+}
+
+/// Where a DDPEN planner's sub-goals come from (see the module docs).
+pub trait SubgoalSource: Send {
+    /// Short name (`"astar"`, `"network"`).
+    fn name(&self) -> &str;
+    /// Sub-goals in the world frame, in path order, for a robot at `state` heading for the local
+    /// goal `goal`, seen on `perception`'s costmap; written to `out` (cleared first). Empty when
+    /// the source has none (the planner then runs as vanilla DDP).
+    fn subgoals(
+        &mut self,
+        perception: &Perception,
+        state: [f64; 3],
+        goal: [f64; 2],
+        out: &mut Vec<[f64; 2]>,
+    ) -> Result<()>;
+}
+
+/// The A* oracle: sub-goals at path steps [`ORACLE_STEPS`] (clamped to the path's end on short
+/// paths) of the cost-aware 8-connected A* path from the robot's cell to the free cell nearest to
+/// the local goal, on the inflated costmap; the dataset's labels, computed on the live costmap.
+#[derive(Debug, Clone)]
+pub struct AstarSubgoals {
+    /// The A* workspace and the grid size it was made for.
+    astar: Option<(AStar, usize, usize)>,
+    params: AStarParams,
+    steps: Vec<usize>,
+    cells: Vec<(usize, usize)>,
+    repair: GoalRepair,
+}
+
+impl Default for AstarSubgoals {
+    fn default() -> Self {
+        Self::new(&ORACLE_STEPS, AStarParams::default()).expect("constant steps are valid")
+    }
+}
+
+impl AstarSubgoals {
+    /// Sub-goals at path steps `steps` (each at least 1) with A* parameters `params`. The A*
+    /// workspace is allocated on the first call (it needs the costmap's size).
+    pub fn new(steps: &[usize], params: AStarParams) -> Result<Self> {
+        if steps.is_empty() {
+            return Err(Error::invalid("subgoal_steps", "needs at least one step"));
+        }
+        if let Some(i) = steps.iter().position(|&s| s == 0) {
+            return Err(Error::invalid(format!("subgoal_steps[{i}]"), "must be at least 1"));
+        }
+        Ok(Self {
+            astar: None,
+            params,
+            steps: steps.to_vec(),
+            cells: Vec::new(),
+            repair: GoalRepair::default(),
+        })
+    }
+
+    /// The cells of the last A* path (start first), empty when it found none.
+    pub fn path(&self) -> &[(usize, usize)] {
+        &self.cells
+    }
+
+    /// A* on `map` from the cell of `start` to the free cell nearest to `goal`; the sub-goal
+    /// cells into `out` (cleared first). `false` when there is no path.
+    pub fn search_cells(
+        &mut self,
+        map: &Costmap,
+        start: [f64; 2],
+        goal: [f64; 2],
+        out: &mut Vec<(usize, usize)>,
+    ) -> bool {
+        out.clear();
+        let g = map.geometry();
+        if self
+            .astar
+            .as_ref()
+            .is_none_or(|a| a.1 != g.width() || a.2 != g.height())
+        {
+            self.astar = Some((AStar::new(g), g.width(), g.height()));
+        }
+        let astar = &mut self.astar.as_mut().expect("just set").0;
+        let s = g.world_to_cell_clamped(start);
+        let Some(t) = self.repair.repair(map, start, goal, self.params.blocked) else {
+            self.cells.clear();
+            return false;
+        };
+        if t == s {
+            self.cells.clear();
+            return false;
+        }
+        if astar.search(map, s, t, &self.params, &mut self.cells).is_none() {
+            return false;
+        }
+        let last = self.cells.len() - 1;
+        out.extend(self.steps.iter().map(|&k| self.cells[k.min(last)]));
+        true
+    }
+}
+
+impl SubgoalSource for AstarSubgoals {
+    fn name(&self) -> &str {
+        "astar"
+    }
+
+    fn subgoals(
+        &mut self,
+        perception: &Perception,
+        state: [f64; 3],
+        goal: [f64; 2],
+        out: &mut Vec<[f64; 2]>,
+    ) -> Result<()> {
+        out.clear();
+        let map = perception.costmap();
+        let mut cells = Vec::with_capacity(self.steps.len());
+        if self.search_cells(map, [state[0], state[1]], goal, &mut cells) {
+            out.extend(cells.iter().map(|&(x, y)| map.geometry().cell_to_world(x, y)));
+        }
+        Ok(())
+    }
+}
+
+/// The sub-goal network of eq. (10): the inflated costmap and the local goal in map coordinates
+/// in, the sub-goals in map coordinates out ([`MapFrame`]).
+#[derive(Clone)]
+pub struct NetworkSubgoals {
+    model: Arc<SubgoalModel>,
+}
+
+impl std::fmt::Debug for NetworkSubgoals {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NetworkSubgoals")
+            .field("num_subgoals", &self.model.num_subgoals())
+            .finish()
+    }
+}
+
+impl NetworkSubgoals {
+    /// A source around a loaded model.
+    pub fn new(model: Arc<SubgoalModel>) -> Self {
+        Self { model }
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Arc<SubgoalModel> {
+        &self.model
+    }
+}
+
+impl SubgoalSource for NetworkSubgoals {
+    fn name(&self) -> &str {
+        "network"
+    }
+
+    fn subgoals(
+        &mut self,
+        perception: &Perception,
+        state: [f64; 3],
+        goal: [f64; 2],
+        out: &mut Vec<[f64; 2]>,
+    ) -> Result<()> {
+        out.clear();
+        let map = perception.costmap();
+        let frame = MapFrame::of(map.geometry());
+        let _ = state;
+        let predicted = self.model.predict(map.cells(), frame.to_map(goal))?;
+        for (i, q) in predicted.iter().enumerate() {
+            if !(q[0].is_finite() && q[1].is_finite()) {
+                return Err(Error::invalid(
+                    format!("subgoals[{i}]"),
+                    format!("the network returned a non-finite sub-goal {q:?}"),
+                ));
+            }
+            out.push(frame.to_world(*q));
+        }
+        Ok(())
+    }
+}
+
+/// A `&'static Path` for [`DdpParams::subgoal_model`] (which is `Copy`): each distinct path is
+/// leaked once per process.
+pub fn intern_path(path: &Path) -> &'static Path {
+    static PATHS: OnceLock<Mutex<Vec<&'static Path>>> = OnceLock::new();
+    let mut paths = PATHS.get_or_init(|| Mutex::new(Vec::new())).lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(p) = paths.iter().find(|p| **p == path) {
+        return p;
+    }
+    let p: &'static Path = Box::leak(path.to_path_buf().into_boxed_path());
+    paths.push(p);
+    p
+}
+
+/// Loaded sub-goal models by path, shared by every run of the process (a model is immutable).
+fn models() -> &'static Mutex<Vec<(PathBuf, Arc<SubgoalModel>)>> {
+    static MODELS: OnceLock<Mutex<Vec<(PathBuf, Arc<SubgoalModel>)>>> = OnceLock::new();
+    MODELS.get_or_init(|| Mutex::new(Vec::new()))
+}
+
+/// The sub-goal model at `path` (`None`: the shipped default), loaded once per process and
+/// shared. Errors name the field `model` and the file.
+pub fn load_model(path: Option<&Path>) -> Result<Arc<SubgoalModel>> {
+    let key = path.map_or_else(|| PathBuf::from("<default>"), Path::to_path_buf);
+    let mut cache = models().lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, m)) = cache.iter().find(|(p, _)| *p == key) {
+        return Ok(m.clone());
+    }
+    let loaded = match path {
+        Some(p) => SubgoalModel::load(p),
+        None => SubgoalModel::default_model(),
+    }
+    .map_err(|e| Error::invalid("model", format!("cannot load {}: {e}", key.display())))?;
+    let model = Arc::new(loaded);
+    cache.push((key, model.clone()));
+    Ok(model)
+}
+
+/// DDP with the sub-goal cost of eqs. (8)-(9), its sub-goals from a [`SubgoalSource`] (see the
+/// module docs).
+pub struct DdpenPlanner {
+    ddp: DdpPlanner,
+    source: Box<dyn SubgoalSource>,
+    name: String,
+    every: usize,
+    cycle: usize,
+    subgoals: Vec<[f64; 2]>,
+    /// Cosine of the angle beyond which the first sub-goal counts as behind the robot.
+    turn_cos: f64,
+    repair: GoalRepair,
+    /// The latched sub-goal target (world), see [`DdpenPlanner::target`].
+    latched: Option<[f64; 2]>,
+    path: Vec<[f64; 2]>,
+    guess: Vec<Vector<2>>,
+}
+
+impl DdpenPlanner {
+    /// A planner named `name` with `params` (`params.subgoal_every` is the inference cadence)
+    /// and sub-goals from `source`.
+    pub fn new(name: impl Into<String>, params: DdpParams, source: Box<dyn SubgoalSource>) -> Result<Self> {
+        Ok(Self {
+            ddp: DdpPlanner::new(params)?,
+            source,
+            name: name.into(),
+            every: params.subgoal_every,
+            cycle: 0,
+            subgoals: Vec::new(),
+            turn_cos: 0.0,
+            repair: GoalRepair::default(),
+            latched: None,
+            path: Vec::new(),
+            guess: vec![Vector::<2>::zeros(); params.horizon],
+        })
+    }
+
+    /// `ddpen-oracle`: A* sub-goals.
+    pub fn oracle(params: DdpParams) -> Result<Self> {
+        Self::new("ddpen-oracle", params, Box::new(AstarSubgoals::default()))
+    }
+
+    /// `ddpen`: the network's sub-goals, with the model at `params.subgoal_model` or the
+    /// shipped default.
+    pub fn network(params: DdpParams) -> Result<Self> {
+        let model = load_model(params.subgoal_model)?;
+        Self::new("ddpen", params, Box::new(NetworkSubgoals::new(model)))
+    }
+
+    /// The sub-goals in force (world frame).
+    pub fn subgoals(&self) -> &[[f64; 2]] {
+        &self.subgoals
+    }
+
+    /// The goal the sub-goal source aims for this cycle. Normally the route's local goal; when
+    /// that is blocked or out of reach, the [`GoalRepair`] cell, which is then *latched* in the
+    /// world frame until the robot comes within 1 m of it or it leaves the costmap or becomes
+    /// unreachable. Without the latch the robot that turns away from a dead end sees the local
+    /// goal, which slides along with it, fall back into the free pocket in front of the dead
+    /// end, and turns back in.
+    fn target(&mut self, perception: &Perception, state: [f64; 3], goal: [f64; 2]) -> [f64; 2] {
+        let map = perception.costmap();
+        let g = map.geometry();
+        let blocked = AStarParams::default().blocked;
+        let xy = [state[0], state[1]];
+        if let Some(l) = self.latched {
+            let keep = g.world_to_cell(l).is_some()
+                && (l[0] - xy[0]).hypot(l[1] - xy[1]) > 1.0
+                && self.repair.repair(map, xy, l, blocked) == g.world_to_cell(l);
+            if keep {
+                return l;
+            }
+            self.latched = None;
+        }
+        let Some((ix, iy)) = self.repair.repair(map, xy, goal, blocked) else {
+            return goal;
+        };
+        let t = g.cell_to_world(ix, iy);
+        if (t[0] - goal[0]).hypot(t[1] - goal[1]) > 0.5 {
+            self.latched = Some(t);
+        }
+        t
+    }
+}
+
+impl Planner for DdpenPlanner {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn plan(&mut self, request: &PlanRequest<'_>) -> Result<&Plan> {
+        let t = Instant::now();
+        let mut infer = 0.0;
+        if self.cycle % self.every == 0 {
+            let target = self.target(request.perception, request.state, request.goal);
+            self.source
+                .subgoals(request.perception, request.state, target, &mut self.subgoals)?;
+            self.ddp.set_subgoals(&self.subgoals)?;
+            infer = t.elapsed().as_secs_f64();
+        }
+        self.cycle += 1;
+        let [x, y, theta] = request.state;
+        let behind = self.subgoals.first().is_some_and(|s| {
+            let alpha = (s[1] - y).atan2(s[0] - x) - theta;
+            alpha.cos() < self.turn_cos
+        });
+        self.ddp.plan_mut().setup_seconds = 0.0;
+        if behind {
+            // v = 0 is a stationary point of the cost in w (the position does not move with the
+            // heading), so a DDP standing still never turns towards sub-goals behind it: the
+            // initial guess turns in place towards them and then follows them.
+            self.path.clear();
+            self.path.push([x, y]);
+            self.path.extend_from_slice(&self.subgoals);
+            pursuit_guess(self.ddp.params(), request.state, &self.path, 0.5, &mut self.guess);
+            self.ddp.set_initial_guess(&self.guess)?;
+        } else {
+            self.ddp.warm_start(request.steps_since_last);
+        }
+        {
+            let plan = self.ddp.plan_mut();
+            plan.guide.clear();
+            plan.guide.extend_from_slice(&self.subgoals);
+        }
+        self.ddp.optimise(request, t)?;
+        let plan = self.ddp.plan_mut();
+        plan.subgoal_seconds = infer;
+        Ok(plan)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn map_frame_round_trips_and_matches_cells() {
+        let g = GridGeometry::ddpen([3.33, -7.81]);
+        let f = MapFrame::of(&g);
+        // The centre is within one cell of the requested centre, on the lattice corner.
+        assert!((f.center()[0] - 3.33).abs() <= 0.05 && (f.center()[1] + 7.81).abs() <= 0.05);
+        // Map coordinates (0.025, 0.025) are the centre of cell (100, 100); x along columns.
+        let c = g.cell_to_world(100, 100);
+        let q = f.to_map(c);
+        assert!((q[0] - 0.025).abs() < 1e-5 && (q[1] - 0.025).abs() < 1e-5, "{q:?}");
+        let c = g.cell_to_world(150, 60);
+        let q = f.to_map(c);
+        assert!((q[0] - 2.525).abs() < 1e-5 && (q[1] + 1.975).abs() < 1e-5, "{q:?}");
+        let back = f.to_world(q);
+        assert!((back[0] - c[0]).abs() < 1e-5 && (back[1] - c[1]).abs() < 1e-5);
+    }
+
+    #[test]
+    fn steps_are_validated() {
+        let e = AstarSubgoals::new(&[30, 0], AStarParams::default()).unwrap_err();
+        assert!(e.to_string().contains("subgoal_steps[1]"), "{e}");
+        assert!(AstarSubgoals::new(&[], AStarParams::default()).is_err());
+    }
+}

@@ -14,8 +14,11 @@ const CNN: &[u8] = include_bytes!("fixtures/cnn.safetensors");
 const EFFICIENTNET: &[u8] = include_bytes!("fixtures/efficientnet.safetensors");
 const GOLDEN: &[u8] = include_bytes!("fixtures/golden.safetensors");
 
-/// The golden inputs and one model's torch outputs (float64): `(costmaps, goals, outputs)`.
-fn golden(model: &str) -> (Vec<Vec<u8>>, Vec<[f32; 2]>, Vec<Vec<[f64; 2]>>) {
+/// Costmaps, goals and one model's torch outputs (float64) per golden input.
+type Golden = (Vec<Vec<u8>>, Vec<[f32; 2]>, Vec<Vec<[f64; 2]>>);
+
+/// The golden inputs and one model's torch outputs: `(costmaps, goals, outputs)`.
+fn golden(model: &str) -> Golden {
     let st = SafeTensors::deserialize(GOLDEN).unwrap();
     let maps = st.tensor("costmaps").unwrap();
     assert_eq!(maps.dtype(), Dtype::U8);

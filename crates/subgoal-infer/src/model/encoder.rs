@@ -57,7 +57,7 @@ struct MbConv {
 #[derive(Debug, Clone)]
 enum Stage {
     Conv(Conv2d),
-    MbConv(MbConv),
+    MbConv(Box<MbConv>),
 }
 
 /// A costmap encoder: `1 x in x in` image to `channels x h x w` features.
@@ -185,13 +185,13 @@ impl Encoder {
                     Act::None,
                 )?;
                 side = conv_out(side, k, stride, (k - 1) / 2);
-                stages.push(Stage::MbConv(MbConv {
+                stages.push(Stage::MbConv(Box::new(MbConv {
                     expand,
                     depthwise,
                     se,
                     project,
                     residual: stride == 1 && cin == st.out_channels,
-                }));
+                })));
             }
         }
         let n = e.stages.len() + 1;

@@ -108,7 +108,16 @@ impl GoalRepair {
         self.reached[s.1 * w + s.0] = true;
         self.queue.push_back(s);
         while let Some((x, y)) = self.queue.pop_front() {
-            for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)] {
+            for (dx, dy) in [
+                (1i64, 0i64),
+                (-1, 0),
+                (0, 1),
+                (0, -1),
+                (1, 1),
+                (1, -1),
+                (-1, 1),
+                (-1, -1),
+            ] {
                 let (nx, ny) = (x as i64 + dx, y as i64 + dy);
                 if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
                     continue;
@@ -135,6 +144,41 @@ impl GoalRepair {
                 let d2 = ix.abs_diff(cell.0).pow(2) + iy.abs_diff(cell.1).pow(2);
                 if best.is_none_or(|(_, b)| d2 < b) {
                     best = Some(((ix, iy), d2));
+                }
+            }
+        }
+        best.map(|(c, _)| c)
+    }
+
+    /// After [`GoalRepair::repair`] on the same map and start: the reachable cell of the border
+    /// band ([`GOAL_BAND_CELLS`]; a dead-end pocket inside the map is never chosen) that gets
+    /// furthest along the unit direction `dir` from `start`, less half its distance across
+    /// `dir` (the way round an obstacle that ends beyond it, rather than the nearest gap beside
+    /// it). `None` when nothing is reachable.
+    /// `side` (`+1` left of `dir`, `-1` right, `0` none) costs cells on the other side 3 m of
+    /// score: a robot that has committed to one way round keeps to it.
+    pub fn furthest_along(&self, map: &Costmap, start: [f64; 2], dir: [f64; 2], side: f64) -> Option<(usize, usize)> {
+        let g = map.geometry();
+        let (w, h) = (g.width(), g.height());
+        if self.reached.len() != w * h {
+            return None;
+        }
+        let mut best: Option<((usize, usize), f64)> = None;
+        for iy in 0..h {
+            for ix in 0..w {
+                let edge = ix.min(iy).min(w - 1 - ix).min(h - 1 - iy);
+                if !self.reached[iy * w + ix] || edge >= GOAL_BAND_CELLS {
+                    continue;
+                }
+                let p = g.cell_to_world(ix, iy);
+                let (dx, dy) = (p[0] - start[0], p[1] - start[1]);
+                let cross = dir[0] * dy - dir[1] * dx;
+                let mut score = dx * dir[0] + dy * dir[1] - 0.5 * cross.abs();
+                if side * cross < 0.0 {
+                    score -= 3.0;
+                }
+                if best.is_none_or(|(_, b)| score > b) {
+                    best = Some(((ix, iy), score));
                 }
             }
         }
@@ -321,7 +365,10 @@ impl SubgoalSource for NetworkSubgoals {
 /// leaked once per process.
 pub fn intern_path(path: &Path) -> &'static Path {
     static PATHS: OnceLock<Mutex<Vec<&'static Path>>> = OnceLock::new();
-    let mut paths = PATHS.get_or_init(|| Mutex::new(Vec::new())).lock().unwrap_or_else(|e| e.into_inner());
+    let mut paths = PATHS
+        .get_or_init(|| Mutex::new(Vec::new()))
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
     if let Some(p) = paths.iter().find(|p| **p == path) {
         return p;
     }
@@ -330,9 +377,12 @@ pub fn intern_path(path: &Path) -> &'static Path {
     p
 }
 
+/// Loaded models by path.
+type ModelCache = Mutex<Vec<(PathBuf, Arc<SubgoalModel>)>>;
+
 /// Loaded sub-goal models by path, shared by every run of the process (a model is immutable).
-fn models() -> &'static Mutex<Vec<(PathBuf, Arc<SubgoalModel>)>> {
-    static MODELS: OnceLock<Mutex<Vec<(PathBuf, Arc<SubgoalModel>)>>> = OnceLock::new();
+fn models() -> &'static ModelCache {
+    static MODELS: OnceLock<ModelCache> = OnceLock::new();
     MODELS.get_or_init(|| Mutex::new(Vec::new()))
 }
 
@@ -366,8 +416,11 @@ pub struct DdpenPlanner {
     /// Cosine of the angle beyond which the first sub-goal counts as behind the robot.
     turn_cos: f64,
     repair: GoalRepair,
-    /// The latched sub-goal target (world), see [`DdpenPlanner::target`].
-    latched: Option<[f64; 2]>,
+    /// The latched sub-goal target (world) and the cycle it was latched, see
+    /// [`DdpenPlanner::target`].
+    latched: Option<Latch>,
+    /// The side of the last committed way round (`+1` left, `-1` right, `0` none yet).
+    side: f64,
     path: Vec<[f64; 2]>,
     guess: Vec<Vector<2>>,
 }
@@ -376,8 +429,12 @@ impl DdpenPlanner {
     /// A planner named `name` with `params` (`params.subgoal_every` is the inference cadence)
     /// and sub-goals from `source`.
     pub fn new(name: impl Into<String>, params: DdpParams, source: Box<dyn SubgoalSource>) -> Result<Self> {
+        params.validate()?;
         Ok(Self {
-            ddp: DdpPlanner::new(params)?,
+            ddp: DdpPlanner::new(DdpParams {
+                v_min: params.subgoal_v_min,
+                ..params
+            })?,
             source,
             name: name.into(),
             every: params.subgoal_every,
@@ -386,6 +443,7 @@ impl DdpenPlanner {
             turn_cos: 0.0,
             repair: GoalRepair::default(),
             latched: None,
+            side: 0.0,
             path: Vec::new(),
             guess: vec![Vector::<2>::zeros(); params.horizon],
         })
@@ -410,21 +468,36 @@ impl DdpenPlanner {
 
     /// The goal the sub-goal source aims for this cycle. Normally the route's local goal; when
     /// that is blocked or out of reach, the [`GoalRepair`] cell, which is then *latched* in the
-    /// world frame until the robot comes within 1 m of it or it leaves the costmap or becomes
-    /// unreachable. Without the latch the robot that turns away from a dead end sees the local
-    /// goal, which slides along with it, fall back into the free pocket in front of the dead
-    /// end, and turns back in.
+    /// world frame (a commitment to one side of the obstacle) until the robot comes within 1 m of
+    /// it, it becomes blocked or unreachable while inside the costmap, or `LATCH_CYCLES` cycles
+    /// pass. A latched goal outside the costmap is pulled in along the line from the robot.
+    /// Without the latch a robot that turns away from a dead end sees the local goal, which
+    /// slides along with it, fall back into the free pocket in front of the dead end, or flip
+    /// between the two ways round a symmetric trap.
     fn target(&mut self, perception: &Perception, state: [f64; 3], goal: [f64; 2]) -> [f64; 2] {
+        const LATCH_CYCLES: usize = 300;
         let map = perception.costmap();
         let g = map.geometry();
         let blocked = AStarParams::default().blocked;
         let xy = [state[0], state[1]];
-        if let Some(l) = self.latched {
-            let keep = g.world_to_cell(l).is_some()
-                && (l[0] - xy[0]).hypot(l[1] - xy[1]) > 1.0
-                && self.repair.repair(map, xy, l, blocked) == g.world_to_cell(l);
-            if keep {
-                return l;
+        if let Some(latch) = self.latched {
+            let l = latch.point;
+            let along = |p: [f64; 2]| (p[0] - latch.origin[0]) * latch.dir[0] + (p[1] - latch.origin[1]) * latch.dir[1];
+            // Pull a latched goal outside the map in along the line from the robot.
+            let half = 0.5 * g.size()[0].min(g.size()[1]) - 2.0 * g.resolution();
+            let c = g.center();
+            let scale = (half / (l[0] - c[0]).abs().max((l[1] - c[1]).abs()).max(1e-9)).min(1.0);
+            let inside = scale >= 1.0;
+            let q = [c[0] + scale * (l[0] - c[0]), c[1] + scale * (l[1] - c[1])];
+            let reach = self.repair.repair(map, xy, q, blocked);
+            let fine = if inside {
+                reach == g.world_to_cell(q)
+            } else {
+                reach.is_some()
+            };
+            let passed = along(xy) > along(l) - 1.0 || (l[0] - xy[0]).hypot(l[1] - xy[1]) < 1.0;
+            if !passed && fine && self.cycle.saturating_sub(latch.cycle) < LATCH_CYCLES {
+                return reach.map_or(q, |(ix, iy)| g.cell_to_world(ix, iy));
             }
             self.latched = None;
         }
@@ -432,11 +505,37 @@ impl DdpenPlanner {
             return goal;
         };
         let t = g.cell_to_world(ix, iy);
-        if (t[0] - goal[0]).hypot(t[1] - goal[1]) > 0.5 {
-            self.latched = Some(t);
+        if (t[0] - goal[0]).hypot(t[1] - goal[1]) <= 0.5 {
+            return t;
         }
+        // The goal is blocked or out of reach: commit to the way round that gets furthest
+        // towards it.
+        let (dx, dy) = (goal[0] - xy[0], goal[1] - xy[1]);
+        let n = dx.hypot(dy).max(1e-9);
+        let dir = [dx / n, dy / n];
+        let t = self
+            .repair
+            .furthest_along(map, xy, dir, self.side)
+            .map_or(t, |(ix, iy)| g.cell_to_world(ix, iy));
+        let cross = dir[0] * (t[1] - xy[1]) - dir[1] * (t[0] - xy[0]);
+        self.side = if cross.abs() > 0.5 { cross.signum() } else { self.side };
+        self.latched = Some(Latch {
+            point: t,
+            cycle: self.cycle,
+            origin: xy,
+            dir,
+        });
         t
     }
+}
+
+/// A committed sub-goal target (see [`DdpenPlanner`]'s `target`).
+#[derive(Debug, Clone, Copy)]
+struct Latch {
+    point: [f64; 2],
+    cycle: usize,
+    origin: [f64; 2],
+    dir: [f64; 2],
 }
 
 impl Planner for DdpenPlanner {
@@ -456,10 +555,11 @@ impl Planner for DdpenPlanner {
         }
         self.cycle += 1;
         let [x, y, theta] = request.state;
-        let behind = self.subgoals.first().is_some_and(|s| {
-            let alpha = (s[1] - y).atan2(s[0] - x) - theta;
-            alpha.cos() < self.turn_cos
-        });
+        let behind = self.ddp.params().v_min >= 0.0
+            && self.subgoals.first().is_some_and(|s| {
+                let alpha = (s[1] - y).atan2(s[0] - x) - theta;
+                alpha.cos() < self.turn_cos
+            });
         self.ddp.plan_mut().setup_seconds = 0.0;
         if behind {
             // v = 0 is a stationary point of the cost in w (the position does not move with the

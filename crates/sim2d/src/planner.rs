@@ -28,6 +28,11 @@
 //!
 //! [`AstarDdpPlanner`] is the same optimiser whose initial guess each cycle is a pure-pursuit
 //! rollout along the A* path from the robot to the local goal on the inflated costmap.
+//!
+//! DDPEN (`ddpen`, `ddpen-oracle`) is [`crate::ddpen::DdpenPlanner`]: this optimiser with the
+//! sub-goal terms, its sub-goals from the network or the A* oracle. Its own fields here:
+//! `w_subgoal` (1 per sub-goal), `subgoal_every` (1: new sub-goals every cycle), `subgoal_v_min`
+//! (-0.5 m/s: DDPEN may back out of a pocket), `subgoal_model` (`None`: the shipped weights).
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -66,6 +71,11 @@ pub struct DdpParams {
     pub w_subgoal: f64,
     /// DDPEN: ask for new sub-goals every this many planning cycles (the cadence of inference).
     pub subgoal_every: usize,
+    /// DDPEN: lower speed bound of DDPEN's plans (m/s; replaces `v_min`). Negative lets the robot
+    /// back out towards sub-goals behind it: with `v >= 0`, standing still is a stationary point
+    /// of the cost in the turn rate, and a turn towards a sub-goal behind takes longer than the
+    /// horizon before it pays.
+    pub subgoal_v_min: f64,
     /// DDPEN: the sub-goal model's weights (`None`: the shipped default; see
     /// [`crate::ddpen::intern_path`] to make a `&'static Path`).
     pub subgoal_model: Option<&'static std::path::Path>,
@@ -93,6 +103,7 @@ impl Default for DdpParams {
             eps: 0.05,
             w_subgoal: 1.0,
             subgoal_every: 1,
+            subgoal_v_min: -0.5,
             subgoal_model: None,
             v_min: 0.0,
             v_max: 1.5,
@@ -126,6 +137,15 @@ impl DdpParams {
             ("w_max", self.w_max),
         ] {
             check_nonnegative(&format!("ddp.{n}"), v)?;
+        }
+        if !(self.subgoal_v_min.is_finite() && self.subgoal_v_min <= self.v_max) {
+            return Err(Error::invalid(
+                "ddp.subgoal_v_min",
+                format!(
+                    "must be finite and <= ddp.v_max = {}, got {}",
+                    self.v_max, self.subgoal_v_min
+                ),
+            ));
         }
         if !(self.v_min.is_finite() && self.v_max.is_finite() && self.v_min <= self.v_max) {
             return Err(Error::invalid(
@@ -461,7 +481,13 @@ impl AstarDdpPlanner {
 /// Pure-pursuit rollout of the unicycle from `state` along the polyline `path` (look-ahead
 /// `lookahead` m) into `guess` (one control per knot): it turns in place while the look-ahead
 /// point is more than 90 degrees off the heading.
-pub(crate) fn pursuit_guess(p: &DdpParams, state: [f64; 3], path: &[[f64; 2]], lookahead: f64, guess: &mut [Vector<2>]) {
+pub(crate) fn pursuit_guess(
+    p: &DdpParams,
+    state: [f64; 3],
+    path: &[[f64; 2]],
+    lookahead: f64,
+    guess: &mut [Vector<2>],
+) {
     let model = Unicycle::new(p.dt).expect("validated dt");
     let mut x = Vector::<3>::new(state[0], state[1], state[2]);
     let mut nearest = 0;
@@ -575,7 +601,8 @@ mod tests {
     #[test]
     fn planned_trajectory_keeps_away_from_a_seen_wall() {
         let perception = perception_with_wall();
-        for kind in PlannerKind::ALL {
+        // (`ddpen` follows its network, tested in tests/ddpen.rs.)
+        for kind in [PlannerKind::Ddp, PlannerKind::DdpAstar, PlannerKind::DdpenOracle] {
             let mut planner = kind.build(&DdpParams::default()).unwrap();
             let mut plan = Plan::default();
             for cycle in 0..10 {

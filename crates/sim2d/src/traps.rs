@@ -120,7 +120,10 @@ impl TrapParams {
         if !(self.route_length.is_finite() && self.route_length >= 16.0) {
             return Err(Error::invalid(
                 "traps.route_length",
-                format!("must be at least 16 m (the trap sits 9-13 m from the start), got {}", self.route_length),
+                format!(
+                    "must be at least 16 m (the trap sits 9-13 m from the start), got {}",
+                    self.route_length
+                ),
             ));
         }
         check_positive("traps.path_clearance", self.path_clearance)?;
@@ -139,7 +142,10 @@ struct Builder {
 impl Builder {
     fn to_route(&self, p: [f64; 2]) -> [f64; 2] {
         let (s, c) = self.yaw.sin_cos();
-        [self.origin[0] + c * p[0] - s * p[1], self.origin[1] + s * p[0] + c * p[1]]
+        [
+            self.origin[0] + c * p[0] - s * p[1],
+            self.origin[1] + s * p[0] + c * p[1],
+        ]
     }
     /// A box at `center` (trap frame) with `size`, turned by `yaw` relative to the trap.
     fn rect(&mut self, center: [f64; 2], size: [f64; 2], yaw: f64) {
@@ -352,12 +358,7 @@ pub fn solvable(s: &Scenario, clearance: f64) -> bool {
         if (x, y) == (gx, gy) {
             return true;
         }
-        let neighbours = [
-            (x.wrapping_sub(1), y),
-            (x + 1, y),
-            (x, y.wrapping_sub(1)),
-            (x, y + 1),
-        ];
+        let neighbours = [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)];
         for (nx, ny) in neighbours {
             if nx < w && ny < h && !seen[ny * w + nx] && free[ny * w + nx] {
                 seen[ny * w + nx] = true;

@@ -33,7 +33,7 @@ struct Args {
     /// Scenario file (TOML).
     #[arg(default_value = "scenarios/cylinders.toml")]
     scenario: PathBuf,
-    /// Planner (repeatable): ddp, ddp-astar.
+    /// Planner (repeatable): ddp, ddp-astar, ddpen, ddpen-oracle.
     #[arg(long = "planner", default_value = "ddp")]
     planners: Vec<String>,
     /// Route direction.
@@ -63,6 +63,9 @@ struct Args {
     /// Planner horizon N (knots of 0.1 s).
     #[arg(long)]
     horizon: Option<usize>,
+    /// Sub-goal model weights for `ddpen` [default: the shipped model].
+    #[arg(long)]
+    model: Option<PathBuf>,
     /// Worker threads [default: one per core].
     #[arg(long)]
     threads: Option<usize>,
@@ -99,6 +102,9 @@ fn run(args: Args) -> sim2d::Result<()> {
     let mut base = RunConfig::default();
     if let Some(n) = args.horizon {
         base.ddp.horizon = n;
+    }
+    if let Some(m) = &args.model {
+        base.ddp.subgoal_model = Some(sim2d::ddpen::intern_path(m));
     }
     base.validate()?;
     let mut jobs = Vec::new();

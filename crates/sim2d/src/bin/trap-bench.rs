@@ -210,7 +210,9 @@ fn run(args: Args) -> sim2d::Result<()> {
             let runs: Vec<&RunResult> = jobs
                 .iter()
                 .zip(&results)
-                .filter(|(j, _)| j.config.planner == planner && j.scenario.name.starts_with(&format!("{}_", kind.name())))
+                .filter(|(j, _)| {
+                    j.config.planner == planner && j.scenario.name.starts_with(&format!("{}_", kind.name()))
+                })
                 .map(|(_, r)| r)
                 .collect();
             cells.push(cell(kind.name(), planner.name(), &runs));
@@ -247,7 +249,10 @@ fn run(args: Args) -> sim2d::Result<()> {
         })
         .collect();
     println!("| all | {} |", all.join(" | "));
-    println!("\nPlanning cycle (set-up incl. sub-goals + {} epochs), mean ms:", base.ddp.epochs);
+    println!(
+        "\nPlanning cycle (set-up incl. sub-goals + {} epochs), mean ms:",
+        base.ddp.epochs
+    );
     for &p in &planners {
         let sel: Vec<&Cell> = cells.iter().filter(|c| c.planner == p.name()).collect();
         let mean = sel.iter().map(|c| c.cycle_ms_mean).sum::<f64>() / sel.len() as f64;

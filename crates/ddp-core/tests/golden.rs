@@ -10,8 +10,7 @@ use ddp_core::{reference, Method, Problem, Settings, Solver, Status};
 fn golden_path(name: &str) -> PathBuf {
     // Relative to the package root (cargo runs tests there): a path baked in at compile time would
     // point at a stale checkout when a build cache is shared between clones.
-    PathBuf::from("tests/golden")
-        .join(format!("{name}.txt"))
+    PathBuf::from("tests/golden").join(format!("{name}.txt"))
 }
 
 fn same_token(a: &str, b: &str) -> bool {

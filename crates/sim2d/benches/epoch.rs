@@ -34,6 +34,7 @@ fn bench(c: &mut Criterion) {
             time: 0.0,
             state: [0.0, 0.0, 0.0],
             goal: [5.0, 0.0],
+            far_goal: [15.0, 0.0],
             perception,
             steps_since_last: steps,
         };

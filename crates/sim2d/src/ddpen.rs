@@ -20,6 +20,17 @@
 //! [`DdpenPlanner`] asks its source every `subgoal_every` cycles (the cadence of inference) and
 //! keeps the sub-goals in between; their compute time is part of the cycle's set-up time.
 //!
+//! What goal the sources (and the DDP's goal terms) aim for is ours, not the paper's: the paper's
+//! local goal, where the route crosses the costmap border (§II-E), sits in the pocket of a trap on
+//! the route, or inside or behind its back wall, and sub-goals towards it lead back into the dead
+//! end. [`DdpenPlanner`] aims instead for an *exit* ([`GoalRepair::best_exit`]): the reachable
+//! cell of the map's border on the best straight-line way to the route further on
+//! ([`crate::planner::PlanRequest::far_goal`]). In free space that is the paper's local goal. The
+//! exit in force is preferred while it stays reachable (hysteresis), an exit that turns out to be a
+//! dead end is remembered in the world frame and avoided, and the oracle keeps its A* path unless a
+//! new one is clearly cheaper ([`PATH_HYSTERESIS`]). All of this uses a flood fill of the costmap
+//! (reachability), never the network's own path.
+//!
 //! ```
 //! use sim2d::ddpen::MapFrame;
 //! use subgoal_infer::grid::GridGeometry;
@@ -33,7 +44,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 
-use subgoal_infer::grid::{AStar, AStarParams, Costmap, GridGeometry};
+use subgoal_infer::grid::{path_cost, AStar, AStarParams, Costmap, GridGeometry};
 use subgoal_infer::SubgoalModel;
 
 use crate::error::{Error, Result};
@@ -80,10 +91,11 @@ impl MapFrame {
 /// lie within 0.5 m of the border.
 pub const GOAL_BAND_CELLS: usize = 10;
 
-/// The local goal as the sub-goal sources see it. The route's local goal lies on the costmap's
-/// border (§II-E) and may fall inside an obstacle, or in a region the robot cannot reach, where A*
-/// has no path and the network has never seen a goal (its dataset's goals are reachable free
-/// cells near the border). [`GoalRepair::repair`] keeps a reachable free goal and otherwise moves
+/// Reachability on the costmap, for the goal the sub-goal sources see. A goal may fall inside an
+/// obstacle, or in a region the robot cannot reach, where A* has no path and the network has
+/// never seen a goal (its dataset's goals are reachable free cells near the border); exits are
+/// chosen among reachable border cells ([`GoalRepair::best_exit`]). [`GoalRepair::repair`] floods
+/// the map from the robot, keeps a reachable free goal and otherwise moves
 /// it to the nearest cell that the robot can reach (a flood fill through cells cheaper than
 /// `blocked`) within [`GOAL_BAND_CELLS`] of the border when the goal is in that band (so that the
 /// path leads round the obstacle rather than into a pocket in front of it), or anywhere when the
@@ -150,41 +162,78 @@ impl GoalRepair {
         best.map(|(c, _)| c)
     }
 
-    /// After [`GoalRepair::repair`] on the same map and start: the reachable cell of the border
-    /// band ([`GOAL_BAND_CELLS`]; a dead-end pocket inside the map is never chosen) that gets
-    /// furthest along the unit direction `dir` from `start`, less half its distance across
-    /// `dir` (the way round an obstacle that ends beyond it, rather than the nearest gap beside
-    /// it). `None` when nothing is reachable.
-    /// `side` (`+1` left of `dir`, `-1` right, `0` none) costs cells on the other side 3 m of
-    /// score: a robot that has committed to one way round keeps to it.
-    pub fn furthest_along(&self, map: &Costmap, start: [f64; 2], dir: [f64; 2], side: f64) -> Option<(usize, usize)> {
+    /// After [`GoalRepair::repair`] on the same map and start: the *exit*, the reachable cell on
+    /// the costmap's outermost [`EXIT_CELLS`] rings that minimises the straight-line estimate
+    /// `|c - start| + |c - far|` of a way from `start` to the far goal `far` through it (the
+    /// unknown space beyond the map counts as free), less [`EXIT_STICKINESS`] m for cells within
+    /// 1.5 m of the previous exit `previous` (hysteresis: the exit does not flip between two ways
+    /// round an obstacle as the map changes). A dead end inside the map has no exit cells, so it
+    /// is never chosen, whatever its straight-line appeal. `None` when no exit is reachable.
+    /// Cells within [`DEAD_END_RADIUS`] of a point of `dead` (exits found to be dead ends) are
+    /// passed over while any other exit is reachable.
+    pub fn best_exit(
+        &self,
+        map: &Costmap,
+        start: [f64; 2],
+        far: [f64; 2],
+        previous: Option<[f64; 2]>,
+        dead: &[[f64; 2]],
+    ) -> Option<(usize, usize)> {
         let g = map.geometry();
         let (w, h) = (g.width(), g.height());
         if self.reached.len() != w * h {
             return None;
         }
-        let mut best: Option<((usize, usize), f64)> = None;
+        // (cell, whether it is near a dead end, score): live exits first, then the lower score.
+        let mut best: Option<((usize, usize), bool, f64)> = None;
+        let mut consider = |ix: usize, iy: usize| {
+            if !self.reached[iy * w + ix] {
+                return;
+            }
+            let p = g.cell_to_world(ix, iy);
+            let mut score = (p[0] - start[0]).hypot(p[1] - start[1]) + (p[0] - far[0]).hypot(p[1] - far[1]);
+            if previous.is_some_and(|q| (p[0] - q[0]).hypot(p[1] - q[1]) < 1.5) {
+                score -= EXIT_STICKINESS;
+            }
+            let is_dead = dead.iter().any(|q| (p[0] - q[0]).hypot(p[1] - q[1]) < DEAD_END_RADIUS);
+            if best.is_none_or(|(_, d, b)| (is_dead, score) < (d, b)) {
+                best = Some(((ix, iy), is_dead, score));
+            }
+        };
         for iy in 0..h {
+            let edge_y = iy.min(h - 1 - iy);
             for ix in 0..w {
-                let edge = ix.min(iy).min(w - 1 - ix).min(h - 1 - iy);
-                if !self.reached[iy * w + ix] || edge >= GOAL_BAND_CELLS {
-                    continue;
-                }
-                let p = g.cell_to_world(ix, iy);
-                let (dx, dy) = (p[0] - start[0], p[1] - start[1]);
-                let cross = dir[0] * dy - dir[1] * dx;
-                let mut score = dx * dir[0] + dy * dir[1] - 0.5 * cross.abs();
-                if side * cross < 0.0 {
-                    score -= 3.0;
-                }
-                if best.is_none_or(|(_, b)| score > b) {
-                    best = Some(((ix, iy), score));
+                if edge_y.min(ix).min(w - 1 - ix) < EXIT_CELLS {
+                    consider(ix, iy);
                 }
             }
         }
-        best.map(|(c, _)| c)
+        best.map(|(c, _, _)| c)
+    }
+
+    /// After [`GoalRepair::repair`] on the same map: whether world point `p` lies on the map in
+    /// a cell the robot can reach (`None` off the map).
+    pub fn reachable(&self, map: &Costmap, p: [f64; 2]) -> Option<bool> {
+        let (ix, iy) = map.geometry().world_to_cell(p)?;
+        self.reached.get(iy * map.width() + ix).copied()
     }
 }
+
+/// Exits within this distance (m) of a known dead end are avoided, see [`GoalRepair::best_exit`].
+pub const DEAD_END_RADIUS: f64 = 2.0;
+
+/// Dead ends a [`DdpenPlanner`] remembers (the oldest is forgotten first).
+pub const DEAD_END_MEMORY: usize = 32;
+
+/// Cosine of the angle off the heading beyond which a [`DdpenPlanner`] whose sub-goals lie behind
+/// it backs out towards them rather than turning round first (150 degrees).
+pub const REVERSE_COS: f64 = -0.866;
+
+/// Width of the ring of exit cells at the costmap's border (cells), see [`GoalRepair::best_exit`].
+pub const EXIT_CELLS: usize = 2;
+
+/// Score bonus of cells near the previous exit (m), see [`GoalRepair::best_exit`].
+pub const EXIT_STICKINESS: f64 = 1.0;
 
 /// Where a DDPEN planner's sub-goals come from (see the module docs).
 pub trait SubgoalSource: Send {
@@ -213,6 +262,34 @@ pub struct AstarSubgoals {
     steps: Vec<usize>,
     cells: Vec<(usize, usize)>,
     repair: GoalRepair,
+    /// The path in force (world points), for the hysteresis (see [`AstarSubgoals::search_cells`]).
+    previous: Vec<[f64; 2]>,
+    scratch: Vec<(usize, usize)>,
+}
+
+/// A new A* path replaces the one in force only when it is cheaper than this share of the old
+/// one's remaining cost on the current costmap (plus [`PATH_SLACK_CELLS`]).
+pub const PATH_HYSTERESIS: f64 = 0.8;
+
+/// See [`PATH_HYSTERESIS`] (cells).
+pub const PATH_SLACK_CELLS: f64 = 10.0;
+
+/// Appends the cells of an 8-connected straight line from `a` (exclusive) to `b` (inclusive).
+fn push_line(a: (usize, usize), b: (usize, usize), out: &mut Vec<(usize, usize)>) {
+    let (mut x, mut y) = (a.0 as i64, a.1 as i64);
+    let (bx, by) = (b.0 as i64, b.1 as i64);
+    while (x, y) != (bx, by) {
+        let (dx, dy) = (bx - x, by - y);
+        // Diagonal while both differ by at least half the larger gap, straight otherwise.
+        let (ax, ay) = (dx.abs(), dy.abs());
+        if 2 * ax >= ay {
+            x += dx.signum();
+        }
+        if 2 * ay >= ax {
+            y += dy.signum();
+        }
+        out.push((x as usize, y as usize));
+    }
 }
 
 impl Default for AstarSubgoals {
@@ -237,7 +314,40 @@ impl AstarSubgoals {
             steps: steps.to_vec(),
             cells: Vec::new(),
             repair: GoalRepair::default(),
+            previous: Vec::new(),
+            scratch: Vec::new(),
         })
+    }
+
+    /// The path in force, re-priced from the robot's cell `s` to the new target `t` on `map`:
+    /// its cells into `self.scratch` and its cost, or `None` when there is none, it ended more
+    /// than 3 m from `t`, the robot is more than 0.5 m off it, or it is blocked now.
+    fn previous_path(&mut self, map: &Costmap, s: (usize, usize), t: (usize, usize)) -> Option<f64> {
+        let g = map.geometry();
+        let (start, target) = (g.cell_to_world(s.0, s.1), g.cell_to_world(t.0, t.1));
+        let end = *self.previous.last()?;
+        if (end[0] - target[0]).hypot(end[1] - target[1]) > 3.0 {
+            return None;
+        }
+        let (i, d) = self
+            .previous
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (i, (p[0] - start[0]).hypot(p[1] - start[1])))
+            .min_by(|a, b| a.1.total_cmp(&b.1))?;
+        if d > 0.5 {
+            return None;
+        }
+        self.scratch.clear();
+        self.scratch.push(s);
+        for p in &self.previous[i..] {
+            let c = g.world_to_cell(*p)?;
+            let last = *self.scratch.last().expect("starts with s");
+            push_line(last, c, &mut self.scratch);
+        }
+        let last = *self.scratch.last().expect("starts with s");
+        push_line(last, t, &mut self.scratch);
+        path_cost(map, &self.scratch, &self.params)
     }
 
     /// The cells of the last A* path (start first), empty when it found none.
@@ -267,15 +377,28 @@ impl AstarSubgoals {
         let s = g.world_to_cell_clamped(start);
         let Some(t) = self.repair.repair(map, start, goal, self.params.blocked) else {
             self.cells.clear();
+            self.previous.clear();
             return false;
         };
         if t == s {
             self.cells.clear();
+            self.previous.clear();
             return false;
         }
-        if astar.search(map, s, t, &self.params, &mut self.cells).is_none() {
+        let Some(cost) = astar.search(map, s, t, &self.params, &mut self.cells) else {
+            self.previous.clear();
             return false;
+        };
+        // Hysteresis: keep the path in force unless the new one is clearly cheaper, so that the
+        // sub-goals do not flip between two ways round an obstacle as the costmap changes.
+        if let Some(old) = self.previous_path(map, s, t) {
+            if cost >= PATH_HYSTERESIS * old - PATH_SLACK_CELLS {
+                std::mem::swap(&mut self.cells, &mut self.scratch);
+            }
         }
+        self.previous.clear();
+        self.previous
+            .extend(self.cells.iter().map(|&(x, y)| g.cell_to_world(x, y)));
         let last = self.cells.len() - 1;
         out.extend(self.steps.iter().map(|&k| self.cells[k.min(last)]));
         true
@@ -413,14 +536,15 @@ pub struct DdpenPlanner {
     every: usize,
     cycle: usize,
     subgoals: Vec<[f64; 2]>,
+    /// The goal of the sub-goal source and of the DDP cost, see [`DdpenPlanner::target`].
+    target: Option<[f64; 2]>,
+    /// Whether `target` is an exit (not the route's end).
+    exit: bool,
+    /// Exits found to be dead ends (world), see [`DdpenPlanner::choose_target`].
+    dead_ends: Vec<[f64; 2]>,
     /// Cosine of the angle beyond which the first sub-goal counts as behind the robot.
     turn_cos: f64,
     repair: GoalRepair,
-    /// The latched sub-goal target (world) and the cycle it was latched, see
-    /// [`DdpenPlanner::target`].
-    latched: Option<Latch>,
-    /// The side of the last committed way round (`+1` left, `-1` right, `0` none yet).
-    side: f64,
     path: Vec<[f64; 2]>,
     guess: Vec<Vector<2>>,
 }
@@ -440,10 +564,11 @@ impl DdpenPlanner {
             every: params.subgoal_every,
             cycle: 0,
             subgoals: Vec::new(),
+            target: None,
+            exit: false,
+            dead_ends: Vec::new(),
             turn_cos: 0.0,
             repair: GoalRepair::default(),
-            latched: None,
-            side: 0.0,
             path: Vec::new(),
             guess: vec![Vector::<2>::zeros(); params.horizon],
         })
@@ -466,76 +591,48 @@ impl DdpenPlanner {
         &self.subgoals
     }
 
-    /// The goal the sub-goal source aims for this cycle. Normally the route's local goal; when
-    /// that is blocked or out of reach, the [`GoalRepair`] cell, which is then *latched* in the
-    /// world frame (a commitment to one side of the obstacle) until the robot comes within 1 m of
-    /// it, it becomes blocked or unreachable while inside the costmap, or `LATCH_CYCLES` cycles
-    /// pass. A latched goal outside the costmap is pulled in along the line from the robot.
-    /// Without the latch a robot that turns away from a dead end sees the local goal, which
-    /// slides along with it, fall back into the free pocket in front of the dead end, or flip
-    /// between the two ways round a symmetric trap.
-    fn target(&mut self, perception: &Perception, state: [f64; 3], goal: [f64; 2]) -> [f64; 2] {
-        const LATCH_CYCLES: usize = 300;
+    /// The goal in force: of the sub-goal source and of the DDP's goal terms (eqs. 4, 6).
+    pub fn target(&self) -> Option<[f64; 2]> {
+        self.target
+    }
+
+    /// Chooses the goal of this cycle. The paper's local goal (the route's intersection with the
+    /// costmap border, §II-E) lies on the straight line ahead, so on a route into a trap it sits
+    /// in the pocket, or inside or behind the trap's back wall, where the sub-goals lead the
+    /// robot back into the dead end. Instead, while the local goal is on the border, the goal is
+    /// the exit of [`GoalRepair::best_exit`] towards the far goal `far` (the route further on):
+    /// in free space that is the local goal itself, and round an obstacle the exit on the cheaper
+    /// way round, kept unless another becomes clearly better. Near the route's end (the local goal
+    /// inside the map) it is the local goal, or the reachable cell nearest to it.
+    fn choose_target(&mut self, perception: &Perception, state: [f64; 3], goal: [f64; 2], far: [f64; 2]) -> [f64; 2] {
         let map = perception.costmap();
         let g = map.geometry();
         let blocked = AStarParams::default().blocked;
         let xy = [state[0], state[1]];
-        if let Some(latch) = self.latched {
-            let l = latch.point;
-            let along = |p: [f64; 2]| (p[0] - latch.origin[0]) * latch.dir[0] + (p[1] - latch.origin[1]) * latch.dir[1];
-            // Pull a latched goal outside the map in along the line from the robot.
-            let half = 0.5 * g.size()[0].min(g.size()[1]) - 2.0 * g.resolution();
-            let c = g.center();
-            let scale = (half / (l[0] - c[0]).abs().max((l[1] - c[1]).abs()).max(1e-9)).min(1.0);
-            let inside = scale >= 1.0;
-            let q = [c[0] + scale * (l[0] - c[0]), c[1] + scale * (l[1] - c[1])];
-            let reach = self.repair.repair(map, xy, q, blocked);
-            let fine = if inside {
-                reach == g.world_to_cell(q)
-            } else {
-                reach.is_some()
-            };
-            let passed = along(xy) > along(l) - 1.0 || (l[0] - xy[0]).hypot(l[1] - xy[1]) < 1.0;
-            if !passed && fine && self.cycle.saturating_sub(latch.cycle) < LATCH_CYCLES {
-                return reach.map_or(q, |(ix, iy)| g.cell_to_world(ix, iy));
+        let repaired = self.repair.repair(map, xy, goal, blocked);
+        let (ix, iy) = g.world_to_cell_clamped(goal);
+        let edge = ix.min(iy).min(g.width() - 1 - ix).min(g.height() - 1 - iy);
+        if edge < GOAL_BAND_CELLS {
+            let previous = if self.exit { self.target } else { None };
+            // The exit in force has come into view and out of reach: a dead end (a pocket that
+            // looked open at the map's border). Remember it in the world frame, as the rolling
+            // window forgets it once the robot backs away.
+            if let Some(p) = previous {
+                if self.repair.reachable(map, p) == Some(false) {
+                    if self.dead_ends.len() == DEAD_END_MEMORY {
+                        self.dead_ends.remove(0);
+                    }
+                    self.dead_ends.push(p);
+                }
             }
-            self.latched = None;
+            if let Some((ex, ey)) = self.repair.best_exit(map, xy, far, previous, &self.dead_ends) {
+                self.exit = true;
+                return g.cell_to_world(ex, ey);
+            }
         }
-        let Some((ix, iy)) = self.repair.repair(map, xy, goal, blocked) else {
-            return goal;
-        };
-        let t = g.cell_to_world(ix, iy);
-        if (t[0] - goal[0]).hypot(t[1] - goal[1]) <= 0.5 {
-            return t;
-        }
-        // The goal is blocked or out of reach: commit to the way round that gets furthest
-        // towards it.
-        let (dx, dy) = (goal[0] - xy[0], goal[1] - xy[1]);
-        let n = dx.hypot(dy).max(1e-9);
-        let dir = [dx / n, dy / n];
-        let t = self
-            .repair
-            .furthest_along(map, xy, dir, self.side)
-            .map_or(t, |(ix, iy)| g.cell_to_world(ix, iy));
-        let cross = dir[0] * (t[1] - xy[1]) - dir[1] * (t[0] - xy[0]);
-        self.side = if cross.abs() > 0.5 { cross.signum() } else { self.side };
-        self.latched = Some(Latch {
-            point: t,
-            cycle: self.cycle,
-            origin: xy,
-            dir,
-        });
-        t
+        self.exit = false;
+        repaired.map_or(goal, |(x, y)| g.cell_to_world(x, y))
     }
-}
-
-/// A committed sub-goal target (see [`DdpenPlanner`]'s `target`).
-#[derive(Debug, Clone, Copy)]
-struct Latch {
-    point: [f64; 2],
-    cycle: usize,
-    origin: [f64; 2],
-    dir: [f64; 2],
 }
 
 impl Planner for DdpenPlanner {
@@ -546,8 +643,9 @@ impl Planner for DdpenPlanner {
     fn plan(&mut self, request: &PlanRequest<'_>) -> Result<&Plan> {
         let t = Instant::now();
         let mut infer = 0.0;
-        if self.cycle % self.every == 0 {
-            let target = self.target(request.perception, request.state, request.goal);
+        if self.cycle % self.every == 0 || self.target.is_none() {
+            let target = self.choose_target(request.perception, request.state, request.goal, request.far_goal);
+            self.target = Some(target);
             self.source
                 .subgoals(request.perception, request.state, target, &mut self.subgoals)?;
             self.ddp.set_subgoals(&self.subgoals)?;
@@ -555,11 +653,14 @@ impl Planner for DdpenPlanner {
         }
         self.cycle += 1;
         let [x, y, theta] = request.state;
-        let behind = self.ddp.params().v_min >= 0.0
-            && self.subgoals.first().is_some_and(|s| {
-                let alpha = (s[1] - y).atan2(s[0] - x) - theta;
-                alpha.cos() < self.turn_cos
-            });
+        let alpha = self
+            .subgoals
+            .first()
+            .map_or(0.0, |s| (s[1] - y).atan2(s[0] - x) - theta);
+        let behind = !self.subgoals.is_empty() && alpha.cos() < self.turn_cos;
+        // Nearly straight behind, with reversing allowed: back out (a narrow pocket may leave no
+        // room to turn round in).
+        let reverse = behind && alpha.cos() < REVERSE_COS && self.ddp.params().v_min < 0.0;
         self.ddp.plan_mut().setup_seconds = 0.0;
         if behind {
             // v = 0 is a stationary point of the cost in w (the position does not move with the
@@ -568,7 +669,14 @@ impl Planner for DdpenPlanner {
             self.path.clear();
             self.path.push([x, y]);
             self.path.extend_from_slice(&self.subgoals);
-            pursuit_guess(self.ddp.params(), request.state, &self.path, 0.5, &mut self.guess);
+            pursuit_guess(
+                self.ddp.params(),
+                request.state,
+                &self.path,
+                0.5,
+                reverse,
+                &mut self.guess,
+            );
             self.ddp.set_initial_guess(&self.guess)?;
         } else {
             self.ddp.warm_start(request.steps_since_last);
@@ -578,7 +686,12 @@ impl Planner for DdpenPlanner {
             plan.guide.clear();
             plan.guide.extend_from_slice(&self.subgoals);
         }
-        self.ddp.optimise(request, t)?;
+        // The DDP's goal terms aim at the chosen goal too, not into the dead end.
+        let aimed = PlanRequest {
+            goal: self.target.unwrap_or(request.goal),
+            ..*request
+        };
+        self.ddp.optimise(&aimed, t)?;
         let plan = self.ddp.plan_mut();
         plan.subgoal_seconds = infer;
         Ok(plan)

@@ -2,8 +2,11 @@
 //!
 //! 1. the obstacle layer (a [`Costmap`] of 200 x 200 cells of 5 cm) is re-centred on the robot
 //!    (rolling window, cells keep their world position);
-//! 2. cost decay: every cell loses `decay` per scan, so an obstacle that is not seen again fades
-//!    out after `254 / decay` scans;
+//! 2. clearing by ray tracing (a ROS obstacle layer's `clearing`): the cells every beam passes
+//!    through before its return (or its maximum range) are free, so an obstacle is forgotten only
+//!    where the lidar sees through it again, and a dead end the robot has turned away from stays
+//!    in the map while it is inside the window; optionally also a cost decay of `decay` per scan
+//!    (an obstacle not seen again fades out after `254 / decay` scans; 0 by default);
 //! 3. every lidar return marks its cell [`LETHAL`], and so do the cells behind it along the beam
 //!    up to `shadow_depth`: a lidar sees the near face of an obstacle only, and without this prior
 //!    on its depth a trajectory could tunnel through the one-cell shell of returns;
@@ -25,7 +28,7 @@
 
 use std::sync::Arc;
 
-use subgoal_infer::grid::{Costmap, DistanceField, GridGeometry, Inflation, LETHAL};
+use subgoal_infer::grid::{Costmap, DistanceField, GridGeometry, Inflation, FREE, LETHAL};
 
 use crate::error::{check_nonnegative, check_positive, Error, Result};
 use crate::world::Scan;
@@ -38,8 +41,10 @@ pub struct PerceptionParams {
     pub cells: usize,
     /// Cell side (m).
     pub resolution: f64,
-    /// Cost lost per scan (0 keeps obstacles forever).
+    /// Cost lost per scan (0 keeps obstacles until a beam clears them).
     pub decay: u8,
+    /// Clear the cells each beam passes through (ray tracing) before marking its return.
+    pub raytrace: bool,
     /// Cells at or above this cost are obstacles for the distance field.
     pub obstacle_threshold: u8,
     /// How far behind a lidar return the beam's cells count as obstacle (m; 0: the return only).
@@ -59,8 +64,10 @@ impl Default for PerceptionParams {
         Self {
             cells: 200,
             resolution: 0.05,
-            // 254 / 25 = 10 scans: an obstacle no longer seen is forgotten after about 1 s at 10 Hz.
-            decay: 25,
+            // Obstacles are forgotten where a beam sees through them (ray tracing), not by time:
+            // a time decay forgets a dead end once the robot turns its back to it.
+            decay: 0,
+            raytrace: true,
             obstacle_threshold: 128,
             shadow_depth: 2.0,
             signed: true,
@@ -137,6 +144,23 @@ impl Perception {
         self.obstacles.recenter([scan.pose[0], scan.pose[1]]);
         self.obstacles.decay(self.params.decay);
         let step = 0.5 * self.params.resolution;
+        if self.params.raytrace && !scan.ranges.is_empty() {
+            let n = scan.ranges.len();
+            let [x0, y0, heading] = scan.pose;
+            for (k, &r) in scan.ranges.iter().enumerate() {
+                let a = heading + k as f64 * std::f64::consts::TAU / n as f64;
+                let (sin, cos) = a.sin_cos();
+                // Up to half a cell short of the return, which is marked below.
+                let steps = ((r as f64 - self.params.resolution) / step).floor().max(0.0) as usize;
+                for j in 0..steps {
+                    let d = j as f64 * step;
+                    match self.obstacles.geometry().world_to_cell([x0 + d * cos, y0 + d * sin]) {
+                        Some((ix, iy)) => self.obstacles.set(ix, iy, FREE),
+                        None => break,
+                    }
+                }
+            }
+        }
         let n = (self.params.shadow_depth / step).round() as usize;
         for &h in &scan.hits {
             self.obstacles.mark(h, LETHAL);
@@ -180,5 +204,56 @@ impl Perception {
     /// The distance field of the obstacle layer.
     pub fn field(&self) -> &Arc<DistanceField> {
         &self.field
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scan(pose: [f64; 3], beams: usize, hit: Option<(usize, f64)>) -> Scan {
+        let mut s = Scan {
+            pose,
+            ranges: vec![8.0; beams],
+            max_range: 8.0,
+            hits: vec![],
+        };
+        if let Some((k, r)) = hit {
+            s.ranges[k] = r as f32;
+            let a = pose[2] + k as f64 * std::f64::consts::TAU / beams as f64;
+            s.hits.push([pose[0] + r * a.cos(), pose[1] + r * a.sin()]);
+        }
+        s
+    }
+
+    #[test]
+    fn obstacles_stay_until_a_beam_sees_through_them() {
+        let mut p = Perception::new(PerceptionParams::default()).unwrap();
+        // A return 2 m ahead along beam 0 of 4.
+        p.update(&scan([0.0, 0.0, 0.0], 4, Some((0, 2.0))));
+        let cell = p.obstacles().geometry().world_to_cell([2.0, 0.0]).unwrap();
+        assert_eq!(p.obstacles().get(cell.0, cell.1), LETHAL);
+        // Turned away (the beams miss the obstacle): it stays, with no time decay.
+        for _ in 0..30 {
+            p.update(&scan([0.0, 0.0, 0.3], 4, None));
+        }
+        assert_eq!(p.obstacles().get(cell.0, cell.1), LETHAL);
+        // A beam through the cell (no return within 8 m) clears it, and its shadow.
+        p.update(&scan([0.0, 0.0, 0.0], 4, None));
+        assert_eq!(p.obstacles().get(cell.0, cell.1), FREE);
+        let behind = p.obstacles().geometry().world_to_cell([3.5, 0.0]).unwrap();
+        assert_eq!(p.obstacles().get(behind.0, behind.1), FREE);
+        // With time decay and no ray tracing, an unseen obstacle fades out.
+        let mut q = Perception::new(PerceptionParams {
+            decay: 25,
+            raytrace: false,
+            ..PerceptionParams::default()
+        })
+        .unwrap();
+        q.update(&scan([0.0, 0.0, 0.0], 4, Some((0, 2.0))));
+        for _ in 0..11 {
+            q.update(&scan([0.0, 0.0, 0.3], 4, None));
+        }
+        assert_eq!(q.obstacles().get(cell.0, cell.1), FREE);
     }
 }

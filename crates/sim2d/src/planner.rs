@@ -31,8 +31,10 @@
 //!
 //! DDPEN (`ddpen`, `ddpen-oracle`) is [`crate::ddpen::DdpenPlanner`]: this optimiser with the
 //! sub-goal terms, its sub-goals from the network or the A* oracle. Its own fields here:
-//! `w_subgoal` (1 per sub-goal), `subgoal_every` (1: new sub-goals every cycle), `subgoal_v_min`
-//! (-0.5 m/s: DDPEN may back out of a pocket), `subgoal_model` (`None`: the shipped weights).
+//! `w_subgoal` (2 per sub-goal: with 1, the goal terms towards an exit behind a wall can balance
+//! the sub-goals and hold the robot in a pocket), `subgoal_every` (1: new sub-goals every cycle),
+//! `subgoal_v_min` (-0.5 m/s: DDPEN may back out of a pocket), `subgoal_model` (`None`: the
+//! shipped weights).
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -101,7 +103,7 @@ impl Default for DdpParams {
             w_obstacle: 10.0,
             margin: 0.9,
             eps: 0.05,
-            w_subgoal: 1.0,
+            w_subgoal: 2.0,
             subgoal_every: 1,
             subgoal_v_min: -0.5,
             subgoal_model: None,
@@ -157,6 +159,10 @@ impl DdpParams {
     }
 }
 
+/// How far past the robot's progress along the route [`PlanRequest::far_goal`] lies (m): well
+/// beyond the 5 m half-width of the costmap.
+pub const FAR_AHEAD: f64 = 15.0;
+
 /// What a planner sees each cycle.
 pub struct PlanRequest<'a> {
     /// Simulated time (s).
@@ -165,6 +171,9 @@ pub struct PlanRequest<'a> {
     pub state: [f64; 3],
     /// The local goal `x_goal`.
     pub goal: [f64; 2],
+    /// Where the route leads beyond the costmap: the route point [`FAR_AHEAD`] m past the
+    /// robot's progress, or the route's end (DDPEN chooses its way round obstacles towards it).
+    pub far_goal: [f64; 2],
     /// The lidar costmap and distance field.
     pub perception: &'a Perception,
     /// Control steps executed since the previous plan (0 for the first plan).
@@ -474,18 +483,28 @@ impl AstarDdpPlanner {
 
     /// Pure-pursuit rollout of the unicycle along `self.path` into `self.guess`.
     fn guess_from_path(&mut self, state: [f64; 3]) {
-        pursuit_guess(&self.ddp.params, state, &self.path, self.lookahead, &mut self.guess);
+        pursuit_guess(
+            &self.ddp.params,
+            state,
+            &self.path,
+            self.lookahead,
+            false,
+            &mut self.guess,
+        );
     }
 }
 
 /// Pure-pursuit rollout of the unicycle from `state` along the polyline `path` (look-ahead
 /// `lookahead` m) into `guess` (one control per knot): it turns in place while the look-ahead
-/// point is more than 90 degrees off the heading.
+/// point is more than 90 degrees off the heading. With `reverse` it backs along the path instead
+/// (the tail leads, at most `-v_min`), turning in place while the point is more than 90 degrees
+/// off the tail's direction.
 pub(crate) fn pursuit_guess(
     p: &DdpParams,
     state: [f64; 3],
     path: &[[f64; 2]],
     lookahead: f64,
+    reverse: bool,
     guess: &mut [Vector<2>],
 ) {
     let model = Unicycle::new(p.dt).expect("validated dt");
@@ -507,14 +526,21 @@ pub(crate) fn pursuit_guess(
         let q = path[target];
         let (dx, dy) = (q[0] - x[0], q[1] - x[1]);
         let remaining = dx.hypot(dy);
-        let alpha = wrap(dy.atan2(dx) - x[2]);
+        let facing = if reverse { x[2] + std::f64::consts::PI } else { x[2] };
+        let alpha = wrap(dy.atan2(dx) - facing);
         let w = (2.0 * alpha).clamp(-p.w_max, p.w_max);
         let at_end = target + 1 == path.len();
-        let mut v = p.v_max * alpha.cos().max(0.0);
+        let top = if reverse { (-p.v_min).max(0.0) } else { p.v_max };
+        let mut v = top * alpha.cos().max(0.0);
         if at_end {
             v = v.min(remaining / p.dt);
         }
-        *u = Vector::<2>::new(v.clamp(p.v_min.max(0.0), p.v_max), w);
+        let v = if reverse {
+            -v.clamp(0.0, top)
+        } else {
+            v.clamp(p.v_min.max(0.0), p.v_max)
+        };
+        *u = Vector::<2>::new(v, w);
         x = model.step(&x, u);
     }
 }
@@ -581,6 +607,7 @@ mod tests {
                 time: 0.0,
                 state: [0.0, 0.0, 0.0],
                 goal: [5.0, 0.0],
+                far_goal: [15.0, 0.0],
                 perception: &perception,
                 // Nothing executed between cycles: each cycle continues the optimisation.
                 steps_since_last: 0,
@@ -610,6 +637,7 @@ mod tests {
                     time: 0.0,
                     state: [0.0, 0.0, 0.0],
                     goal: [5.0, 0.0],
+                    far_goal: [15.0, 0.0],
                     perception: &perception,
                     steps_since_last: usize::from(cycle > 0),
                 };

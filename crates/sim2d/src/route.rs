@@ -122,39 +122,55 @@ impl Route {
     }
 
     /// The local goal for a robot at progress `s` with an axis-aligned costmap of half-size
-    /// `half` (m) centred on `center` (see the module docs). When the route at `s` is itself
-    /// outside the costmap (the robot strayed more than `half` from it), the point at `s` is
-    /// clamped into the square.
+    /// `half` (m) centred on `center` (see the module docs): the point where the route, walked
+    /// forward from `s`, first leaves the square after being inside it. When the route at `s`
+    /// lies outside the square (the robot is more than `half` off it, e.g. going round an
+    /// obstacle), the walk starts where the route next enters the square; when it never does,
+    /// the point at `s` is clamped into the square.
     pub fn local_goal(&self, s: f64, center: [f64; 2], half: f64) -> [f64; 2] {
-        let inside = |q: [f64; 2]| (q[0] - center[0]).abs() <= half && (q[1] - center[1]).abs() <= half;
         let s = s.clamp(0.0, self.length());
-        let start = self.point_at(s);
-        if !inside(start) {
-            return [
-                start[0].clamp(center[0] - half, center[0] + half),
-                start[1].clamp(center[1] - half, center[1] + half),
-            ];
-        }
-        let mut a = start;
+        let lo = [center[0] - half, center[1] - half];
+        let hi = [center[0] + half, center[1] + half];
+        let mut a = self.point_at(s);
+        let mut entered = false;
         for i in self.segment_at(s)..self.points.len() - 1 {
             let b = self.points[i + 1];
-            if !inside(b) {
-                // a is inside, b outside: the exit parameter along a -> b.
-                let mut t_exit = 1.0f64;
-                for k in 0..2 {
-                    let d = b[k] - a[k];
-                    if d > 0.0 {
-                        t_exit = t_exit.min((center[k] + half - a[k]) / d);
-                    } else if d < 0.0 {
-                        t_exit = t_exit.min((center[k] - half - a[k]) / d);
-                    }
+            if let Some((t0, t1)) = clip(a, b, lo, hi) {
+                if t1 < 1.0 {
+                    return lerp(a, b, t1);
                 }
-                return lerp(a, b, t_exit.clamp(0.0, 1.0));
+                entered |= t0 <= 1.0;
+            } else if entered {
+                // Left exactly at a route point.
+                return a;
             }
             a = b;
         }
-        self.end()
+        if entered {
+            return self.end();
+        }
+        let p = self.point_at(s);
+        [p[0].clamp(lo[0], hi[0]), p[1].clamp(lo[1], hi[1])]
     }
+}
+
+/// The parameter interval `[t0, t1]` of the segment `a -> b` inside the box `[lo, hi]`
+/// (Liang-Barsky), `None` when the segment misses it.
+fn clip(a: [f64; 2], b: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for k in 0..2 {
+        let d = b[k] - a[k];
+        if d == 0.0 {
+            if a[k] < lo[k] || a[k] > hi[k] {
+                return None;
+            }
+            continue;
+        }
+        let (u, v) = ((lo[k] - a[k]) / d, (hi[k] - a[k]) / d);
+        t0 = t0.max(u.min(v));
+        t1 = t1.min(u.max(v));
+    }
+    (t0 <= t1).then_some((t0, t1))
 }
 
 fn lerp(a: [f64; 2], b: [f64; 2], t: f64) -> [f64; 2] {
@@ -187,6 +203,13 @@ mod tests {
         // Far off the route: the route point clamped into the square.
         let g = r.local_goal(5.0, [5.0, 9.0], 5.0);
         assert_eq!(g, [5.0, 4.0]);
+        // 6 m off the first segment, with the second one inside the square: the walk starts
+        // where the route enters the square and ends at the route's end inside it.
+        let g = r.local_goal(4.0, [17.0, 6.0], 5.0);
+        assert!((g[0] - 20.0).abs() < 1e-12 && (g[1] - 10.0).abs() < 1e-12, "{g:?}");
+        // The route at s is outside, it enters on the first segment and leaves through the right.
+        let g = r.local_goal(2.0, [10.0, 4.5], 5.0);
+        assert!((g[0] - 15.0).abs() < 1e-12 && g[1] == 0.0, "{g:?}");
     }
 
     #[test]

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use crate::error::{check_positive, Error, Result};
 use crate::perception::{Perception, PerceptionParams};
-use crate::planner::{DdpParams, Plan, PlanRequest, PlannerKind};
+use crate::planner::{DdpParams, Plan, PlanRequest, PlannerKind, FAR_AHEAD};
 use crate::route::{dist, Route};
 use crate::scenario::Scenario;
 use crate::world::{LidarParams, RobotParams, Scan, World};
@@ -414,6 +414,7 @@ pub fn run_scenario_with(
                 time,
                 state: pose,
                 goal,
+                far_goal: route.point_at((progress + FAR_AHEAD).min(route.length())),
                 perception: &perception,
                 steps_since_last: if step == 0 { 0 } else { config.plan_every },
             };

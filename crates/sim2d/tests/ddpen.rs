@@ -118,6 +118,51 @@ fn oracle_clamps_on_short_paths_and_aims_round_a_blocked_goal() {
 }
 
 #[test]
+fn exit_is_a_reachable_border_cell_and_keeps_its_side() {
+    let mut map = Costmap::new(GridGeometry::ddpen([0.0, 0.0]));
+    // A wall across the whole map at x = 3.5 .. 4 m: the right border is out of reach.
+    for iy in 0..200 {
+        for ix in 170..180 {
+            map.set(ix, iy, LETHAL);
+        }
+    }
+    let mut repair = GoalRepair::default();
+    assert!(repair.repair(&map, [0.0, 0.0], [4.9, 0.0], INSCRIBED).is_some());
+    let far = [15.0, 0.0];
+    let (ix, iy) = repair.best_exit(&map, [0.0, 0.0], far, None, &[]).unwrap();
+    assert!(ix < 170, "beyond the wall: {ix}");
+    assert!(iy < 2 || iy >= 198, "not on the border: {iy}");
+    // Top and bottom are equally good: the previous exit decides, either way.
+    let g = *map.geometry();
+    for side in [-4.9, 4.9] {
+        let previous = [3.0, side];
+        let (_, iy) = repair.best_exit(&map, [0.0, 0.0], far, Some(previous), &[]).unwrap();
+        assert_eq!(g.cell_to_world(0, iy)[1] > 0.0, side > 0.0, "side {side}: row {iy}");
+    }
+    // A wall only across the middle (|y| < 3 m): the best exit lies behind it, reached round it.
+    let mut map = Costmap::new(GridGeometry::ddpen([0.0, 0.0]));
+    for iy in 40..160 {
+        for ix in 170..180 {
+            map.set(ix, iy, LETHAL);
+        }
+    }
+    assert!(repair.repair(&map, [0.0, 0.0], [4.9, 0.0], INSCRIBED).is_some());
+    let (ix, iy) = repair.best_exit(&map, [0.0, 0.0], far, None, &[]).unwrap();
+    assert!(ix >= 198 && (95..105).contains(&iy), "({ix}, {iy})");
+    let mut path = Vec::new();
+    let found = AStar::new(map.geometry()).search(&map, (100, 100), (ix, iy), &AStarParams::default(), &mut path);
+    assert!(found.is_some() && path.iter().any(|c| c.1 < 40 || c.1 >= 160));
+    // Once that exit is known to be a dead end, another one is chosen, 2 m or more away.
+    let dead = [g.cell_to_world(ix, iy)];
+    let (jx, jy) = repair.best_exit(&map, [0.0, 0.0], far, None, &dead).unwrap();
+    let q = g.cell_to_world(jx, jy);
+    assert!((q[0] - dead[0][0]).hypot(q[1] - dead[0][1]) >= 2.0, "{q:?}");
+    assert_eq!(repair.reachable(&map, q), Some(true));
+    assert_eq!(repair.reachable(&map, [3.75, 0.0]), Some(false), "inside the wall");
+    assert_eq!(repair.reachable(&map, [30.0, 0.0]), None, "off the map");
+}
+
+#[test]
 fn map_frame_matches_the_costmap_cells_of_perception() {
     // The costmap is world-aligned and centred on the robot up to one cell.
     let scenario = Scenario {
@@ -224,6 +269,7 @@ fn ddpen_subgoals_bend_the_plan_round_an_obstacle() {
         time: 0.0,
         state: [0.0, 0.0, 0.0],
         goal: [4.9, 0.0],
+        far_goal: [15.0, 0.0],
         perception: &perception,
         steps_since_last: usize::from(k > 0),
     };
@@ -240,7 +286,6 @@ fn ddpen_subgoals_bend_the_plan_round_an_obstacle() {
 }
 
 #[test]
-#[ignore = "target not met yet: DDPEN-oracle stalls at this trap's mouth (progress 5.4 m of 18); see the README's DDPEN section"]
 fn ddpen_oracle_escapes_a_u_trap_where_ddp_stalls() {
     // An 18 m route with a U of 2 m cubes (pocket 2 m x 4 m) across it at x = 10.
     let scenario = Scenario {

@@ -12,6 +12,12 @@
 //!    of it or around it — the local minima that DDP alone does not escape;
 //! 3. the centre stays free: no obstacle cell centre lies within [`DatasetParams::free_radius`]
 //!    of the map centre (an obstacle that would enter the disc is drawn again);
+//!    with [`DatasetParams::lidar_view`] (the default) the map is then what a lidar at the centre
+//!    makes of it, as sim2d's perception does in the loop: [`DatasetParams::lidar_beams`] rays
+//!    from the centre, each marking the first obstacle cell it meets and the cells behind it along
+//!    the ray up to [`DatasetParams::shadow_depth`]; the faces the lidar cannot see, and whatever
+//!    lies in the shadows beyond, are unknown and free (the goal, the flood fill and A* below all
+//!    work on this view, as the A* oracle does on the live costmap);
 //! 4. costs dilated from the obstacles into free space by [`Inflation`], with the parameters of
 //!    the simulator's perception (sim2d's `PerceptionParams` defaults), so the network sees the
 //!    costmaps it will see in the loop;
@@ -127,6 +133,13 @@ pub struct DatasetParams {
     pub max_obstacles: usize,
     /// A* settings (impassable cost and the weight of the inflation cost).
     pub astar: AStarParams,
+    /// Replace the obstacles by a lidar's view of them from the centre (see the module docs).
+    pub lidar_view: bool,
+    /// Rays of the lidar view over the full circle.
+    pub lidar_beams: usize,
+    /// Depth behind a ray's first obstacle cell that the lidar view marks (m); sim2d
+    /// `PerceptionParams::shadow_depth`.
+    pub shadow_depth: f64,
 }
 
 impl Default for DatasetParams {
@@ -142,6 +155,9 @@ impl Default for DatasetParams {
             min_obstacles: 1,
             max_obstacles: 8,
             astar: AStarParams::default(),
+            lidar_view: true,
+            lidar_beams: 360,
+            shadow_depth: 2.0,
         }
     }
 }
@@ -159,6 +175,13 @@ impl DatasetParams {
                     "must be >= inscribed_radius = {}, got {}",
                     self.inscribed_radius, self.inflation_radius
                 ),
+            ));
+        }
+        nonnegative("shadow_depth", self.shadow_depth)?;
+        if self.lidar_view && !(8..=100_000).contains(&self.lidar_beams) {
+            return Err(Error::invalid(
+                "lidar_beams",
+                format!("must be in 8..=100000, got {}", self.lidar_beams),
             ));
         }
         positive("free_radius", self.free_radius)?;
@@ -401,11 +424,53 @@ impl Generator {
                 }
             }
         }
+        if self.params.lidar_view {
+            self.lidar_view();
+        }
         self.field
             .compute(&self.obstacles, LETHAL)
             .and_then(|()| self.inflation.apply(&self.field, &mut self.costmap))
             .expect("the dataset's grids share one geometry");
         trap
+    }
+
+    /// Replaces the obstacle layer by a lidar's view of it from the centre (module docs, step 3):
+    /// rays in steps of one cell; the hit cell and `shadow_depth` behind it are marked.
+    fn lidar_view(&mut self) {
+        let truth = &self.obstacles;
+        let view = &mut self.costmap;
+        view.fill(0);
+        let g = self.geometry;
+        let n = self.params.lidar_beams;
+        let shadow = (self.params.shadow_depth / RESOLUTION).round() as usize;
+        let max_steps = 2 * MAP_CELLS;
+        let origin = g.center();
+        for k in 0..n {
+            let a = k as f64 * std::f64::consts::TAU / n as f64;
+            let (dy, dx) = a.sin_cos();
+            let at = |j: usize| {
+                [
+                    origin[0] + j as f64 * RESOLUTION * dx,
+                    origin[1] + j as f64 * RESOLUTION * dy,
+                ]
+            };
+            let mut j = 0;
+            let hit = loop {
+                match g.world_to_cell(at(j)) {
+                    Some((ix, iy)) if truth.get(ix, iy) >= LETHAL => break Some(j),
+                    Some(_) if j < max_steps => j += 1,
+                    _ => break None,
+                }
+            };
+            if let Some(j) = hit {
+                for m in j..=j + shadow {
+                    if !view.mark(at(m), LETHAL) {
+                        break;
+                    }
+                }
+            }
+        }
+        std::mem::swap(&mut self.obstacles, &mut self.costmap);
     }
 
     /// Rasterises `o` unless a cell centre of the free disc lies in it.
@@ -433,9 +498,10 @@ impl Generator {
                 let base = rng.random_range((r0 + sy).max(0.9)..(r0 + sy).max(0.9) + 2.0);
                 (rng.random_range(1.0..2.6), sy, base)
             } else {
-                // The robot inside: arms beyond the free disc on both sides.
-                let sx = rng.random_range(2.0 * (r0 + thickness) + 0.2..2.0 * (r0 + thickness) + 1.4);
-                (sx, rng.random_range(1.4..2.6), rng.random_range(r0 + 0.1..r0 + 0.8))
+                // The robot inside: arms beyond the free disc on both sides, a pocket up to
+                // 3.6 m deep with the robot anywhere in its back half.
+                let sx = rng.random_range(2.0 * (r0 + thickness) + 0.2..2.0 * (r0 + thickness) + 2.4);
+                (sx, rng.random_range(1.4..3.6), rng.random_range(r0 + 0.1..r0 + 1.4))
             };
             // Centre of the U: the base's inner face minus half the depth, plus the wall.
             let c = base - 0.5 * sy + thickness;

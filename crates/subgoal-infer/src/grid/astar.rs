@@ -213,6 +213,33 @@ impl AStar {
     }
 }
 
+/// The cost of `path` (cells, start first) on `map` under [`AStar::search`]'s step costs:
+/// `None` when a cell after the first is blocked, outside the grid, or two consecutive cells are
+/// not 8-neighbours. A path [`AStar::search`] returned costs what it reported, so a previous
+/// path can be re-priced on a newer costmap and compared with a fresh search (hysteresis).
+pub fn path_cost(map: &Costmap, path: &[(usize, usize)], params: &AStarParams) -> Option<f64> {
+    let scale = params.cost_weight / MAX_NON_OBSTACLE as f64;
+    let mut total = 0.0;
+    for pair in path.windows(2) {
+        let ((ax, ay), (bx, by)) = (pair[0], pair[1]);
+        if bx >= map.width() || by >= map.height() {
+            return None;
+        }
+        let len = match (ax.abs_diff(bx), ay.abs_diff(by)) {
+            (0, 0) => continue,
+            (1, 0) | (0, 1) => 1.0,
+            (1, 1) => std::f64::consts::SQRT_2,
+            _ => return None,
+        };
+        let c = map.get(bx, by);
+        if c >= params.blocked {
+            return None;
+        }
+        total += len * (1.0 + scale * c.min(MAX_NON_OBSTACLE) as f64);
+    }
+    Some(total)
+}
+
 /// The free cell (cost `< blocked`) nearest to `cell` by Euclidean distance, searching square
 /// rings out to `max_radius` cells; `None` if there is none.
 pub fn nearest_free(map: &Costmap, cell: (usize, usize), blocked: u8, max_radius: usize) -> Option<(usize, usize)> {
@@ -332,10 +359,29 @@ mod tests {
                             sum += len * (1.0 + p.cost_weight * cost as f64 / 252.0);
                         }
                         assert!((sum - c).abs() < 1e-9, "path cost {sum} vs reported {c}");
+                        let priced = path_cost(&map, &path, &p).expect("a found path is passable");
+                        assert!((priced - c).abs() < 1e-9, "path_cost {priced} vs reported {c}");
                     }
                 }
             }
         }
+    }
+
+    #[test]
+    fn path_cost_rejects_blocked_and_broken_paths() {
+        let g = GridGeometry::new(5, 5, 0.1, [0.0, 0.0]).unwrap();
+        let mut map = Costmap::new(g);
+        let p = AStarParams::default();
+        assert_eq!(
+            path_cost(&map, &[(0, 0), (1, 1), (2, 1)], &p),
+            Some(std::f64::consts::SQRT_2 + 1.0)
+        );
+        assert_eq!(path_cost(&map, &[(0, 0), (2, 0)], &p), None, "a jump of two cells");
+        assert_eq!(path_cost(&map, &[(3, 3)], &p), Some(0.0));
+        map.set(2, 1, LETHAL);
+        assert_eq!(path_cost(&map, &[(0, 0), (1, 1), (2, 1)], &p), None);
+        // The start cell is exempt, as in the search.
+        assert_eq!(path_cost(&map, &[(2, 1), (3, 1)], &p), Some(1.0));
     }
 
     #[test]

@@ -9,7 +9,7 @@ mod distance;
 mod edt;
 mod inflation;
 
-pub use astar::{nearest_free, AStar, AStarParams};
+pub use astar::{nearest_free, path_cost, AStar, AStarParams};
 pub use costmap::{Costmap, GridGeometry, FREE, INSCRIBED, LETHAL, MAX_NON_OBSTACLE};
 pub use distance::DistanceField;
 pub use edt::Edt;

@@ -651,3 +651,33 @@ fn clutter_placement(rng: &mut ChaCha8Rng) -> (Kind, Placement) {
     };
     (kind, pl)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::FREE;
+
+    #[test]
+    fn lidar_view_keeps_faces_and_shadows_and_hides_what_lies_beyond() {
+        let mut g = Generator::new(DatasetParams::default()).unwrap();
+        let geo = g.geometry;
+        g.obstacles.fill(0);
+        // Two walls across +x, |y| < 1 m: at x = 1 m and, beyond the 2 m shadow, at x = 4 m.
+        for p in [[1.0, 0.0], [4.0, 0.0]] {
+            for k in -20..20 {
+                let y = 0.05 * k as f64 + 0.025;
+                g.obstacles.mark([p[0] + 0.025, y], LETHAL);
+            }
+        }
+        g.lidar_view();
+        let at = |p: [f64; 2]| {
+            let (ix, iy) = geo.world_to_cell(p).unwrap();
+            g.obstacles.get(ix, iy)
+        };
+        assert_eq!(at([1.025, 0.025]), LETHAL, "the near face");
+        assert_eq!(at([2.5, 0.025]), LETHAL, "its shadow");
+        assert_eq!(at([4.025, 0.025]), FREE, "the far wall is hidden");
+        assert_eq!(at([0.5, 0.025]), FREE, "in front of the face");
+        assert_eq!(at([-2.0, 0.025]), FREE);
+    }
+}

@@ -200,12 +200,13 @@ impl GoalRepair {
                 best = Some(((ix, iy), is_dead, score));
             }
         };
+        // Only the ring: whole rows at the top and bottom, the ends of the rows between.
+        let k = EXIT_CELLS.min(w).min(h);
         for iy in 0..h {
-            let edge_y = iy.min(h - 1 - iy);
-            for ix in 0..w {
-                if edge_y.min(ix).min(w - 1 - ix) < EXIT_CELLS {
-                    consider(ix, iy);
-                }
+            if iy < k || iy >= h - k {
+                (0..w).for_each(|ix| consider(ix, iy));
+            } else {
+                (0..k).chain(w - k..w).for_each(|ix| consider(ix, iy));
             }
         }
         best.map(|(c, _, _)| c)
@@ -265,6 +266,7 @@ pub struct AstarSubgoals {
     /// The path in force (world points), for the hysteresis (see [`AstarSubgoals::search_cells`]).
     previous: Vec<[f64; 2]>,
     scratch: Vec<(usize, usize)>,
+    subgoal_cells: Vec<(usize, usize)>,
 }
 
 /// A new A* path replaces the one in force only when it is cheaper than this share of the old
@@ -316,6 +318,7 @@ impl AstarSubgoals {
             repair: GoalRepair::default(),
             previous: Vec::new(),
             scratch: Vec::new(),
+            subgoal_cells: Vec::new(),
         })
     }
 
@@ -419,10 +422,12 @@ impl SubgoalSource for AstarSubgoals {
     ) -> Result<()> {
         out.clear();
         let map = perception.costmap();
-        let mut cells = Vec::with_capacity(self.steps.len());
+        // The sub-goal cells' buffer is kept between cycles (no allocation per plan).
+        let mut cells = std::mem::take(&mut self.subgoal_cells);
         if self.search_cells(map, [state[0], state[1]], goal, &mut cells) {
             out.extend(cells.iter().map(|&(x, y)| map.geometry().cell_to_world(x, y)));
         }
+        self.subgoal_cells = cells;
         Ok(())
     }
 }

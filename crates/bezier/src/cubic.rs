@@ -17,10 +17,12 @@
 //! Gauss-Legendre order is chosen from an a-priori error bound (see the `quadrature` module
 //! docs) before anything is evaluated. A smooth segment is decided by a root-free bound on the
 //! hodograph's Chebyshev coefficients (one 6- to 16-point rule at `1e-9`, evaluated in the power
-//! basis with the symmetric nodes sharing work); otherwise the roots are computed, the order
-//! comes from the root-based bound sharpened by the `n^{3/2}` decay that square-root branch points
-//! give (a calibrated estimate that follows the requested accuracy instead of over-delivering),
-//! and near-cusps get a graded split at the root's real part. Nothing is allocated.
+//! basis with the symmetric nodes sharing work); otherwise the roots are computed,
+//! the interval is cut at the real part of every root near the real axis (a near-cusp then sits
+//! at the end of a piece, where a low-order rule copes with it), and each piece's order comes from
+//! tabulated errors of the near-cusp model `sqrt((x - x0)^2 + eps^2)` (a calibrated estimate that
+//! follows the requested accuracy); the Bernstein-ellipse bound with graded splits toward the root
+//! remains the fallback. Nothing is allocated.
 
 use crate::bernstein;
 use crate::error::{check_points, Result};

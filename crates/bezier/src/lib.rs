@@ -46,6 +46,7 @@ pub mod bernstein;
 mod bezier;
 mod cubic;
 pub mod error;
+mod branch_tables;
 mod gauss_legendre;
 pub mod optimize;
 pub mod point;

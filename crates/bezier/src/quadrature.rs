@@ -25,8 +25,21 @@
 //! Chebyshev form, and it subtracts the Taylor polynomial of the speed that the rule integrates
 //! exactly, so `M` shrinks to a high power of the hodograph's relative variation. It decides
 //! smooth segments (the usual spline segment) with one rule of 6 to 16 points; loops and
-//! near-cusps fall through to the root-based recursion.
+//! near-cusps fall through to the roots.
+//!
+//! With the roots known, the interval is cut at the real part of every root closer to the real
+//! axis than a quarter of the interval (`branch_order`): a near-cusp then sits at an end of its
+//! piece, where the speed looks like `|t - p|`, which a rule integrates almost exactly, instead
+//! of a kink inside, which no rule does. Each piece takes the smallest rule whose tabulated error
+//! on the model `sqrt((x - x0)^2 + eps^2)` (`tools/gen_branch_tables.py`: the worst case over
+//! branch-point positions and binary bins of `eps`, the root's distance from the real axis over
+//! the piece's length), times a bound of the other factor of the speed and a safety factor 2,
+//! fits the piece's share of the tolerance; a whole interval whose rule is small is not cut. This
+//! is an estimate (the model is exact, the product with the other factor is not), checked on
+//! random, near-cusp and degenerate cubics; where no stored rule fits, the Bernstein-ellipse
+//! recursion above takes over.
 
+use crate::branch_tables::{BRANCH_IN, BRANCH_KMAX, BRANCH_KMIN, BRANCH_OUT};
 use crate::gauss_legendre::{GL10, GL12, GL16, GL20, GL24, GL32, GL4, GL48, GL6, GL64, GL8, ORDERS, RULES};
 use crate::point::Vec2;
 #[cfg(doc)]
@@ -109,25 +122,17 @@ impl Complex {
             (self.im * o.re - self.re * o.im) * inv,
         )
     }
-    /// Principal square root.
-    #[inline]
-    pub fn sqrt(self) -> Complex {
-        let r = self.abs();
-        if r == 0.0 {
-            return Complex::new(0.0, 0.0);
-        }
-        let re = (0.5 * (r + self.re.abs())).sqrt();
-        let other = 0.5 * self.im / re;
-        if self.re >= 0.0 {
-            Complex::new(re, other)
-        } else {
-            Complex::new(other.abs(), if self.im < 0.0 { -re } else { re })
-        }
-    }
 }
 
 /// Roots of `a z^2 + b z + c` (complex coefficients), stably; returns how many (0 to 2) with
 /// `a = 0` or `a = b = 0` handled as lower degrees.
+///
+/// Arranged for a short chain of slow operations (this is on the path of every arc length that
+/// the root-free bound cannot decide): `1 / |a|^2` is computed beside the discriminant's square
+/// root, whose own division runs beside its second square root; the larger root `q / a` then
+/// needs only products, and the smaller one is `-b / a` minus it unless it is much smaller than
+/// the larger one (then `c / q`, which avoids the cancellation).
+#[inline(always)]
 pub(crate) fn complex_quadratic_roots(a: Complex, b: Complex, c: Complex) -> ([Complex; 2], usize) {
     let zero = Complex::new(0.0, 0.0);
     let n2 = |z: Complex| z.re * z.re + z.im * z.im;
@@ -144,7 +149,18 @@ pub(crate) fn complex_quadratic_roots(a: Complex, b: Complex, c: Complex) -> ([C
         }
         return ([c.scale(-1.0).div(b), zero], 1);
     }
-    let disc = b.mul(b).sub(a.mul(c).scale(4.0)).sqrt();
+    let inv_a = 1.0 / na;
+    let w = b.mul(b).sub(a.mul(c).scale(4.0));
+    // Principal square root of w: (s, t) with s = sqrt(m / 2), t = w.im / (2 s) = w.im s / m.
+    let m = w.abs() + w.re.abs();
+    let inv_m = 1.0 / m;
+    let s = (0.5 * m).sqrt();
+    let t = if m > 0.0 { w.im * s * inv_m } else { 0.0 };
+    let disc = if w.re >= 0.0 {
+        Complex::new(s, t)
+    } else {
+        Complex::new(t.abs(), if w.im < 0.0 { -s } else { s })
+    };
     // Choose the sign that avoids cancellation in b +- sqrt(disc).
     let q = if b.re * disc.re + b.im * disc.im >= 0.0 {
         b.add(disc)
@@ -152,11 +168,20 @@ pub(crate) fn complex_quadratic_roots(a: Complex, b: Complex, c: Complex) -> ([C
         b.sub(disc)
     }
     .scale(-0.5);
-    if q.re == 0.0 && q.im == 0.0 {
+    let conj_a = Complex::new(a.re * inv_a, -a.im * inv_a);
+    let r1 = q.mul(conj_a);
+    let nq = n2(q);
+    if nq == 0.0 {
         // b = 0 and c = 0: double root at 0.
         return ([zero, zero], 2);
     }
-    ([q.div(a), c.div(q)], 2)
+    // |r2| = |c| / |q|; below 1e-4 |r1| the sum -b/a - r1 would lose digits.
+    let r2 = if nc * na >= 1e-8 * nq * nq {
+        b.scale(-1.0).mul(conj_a).sub(r1)
+    } else {
+        c.div(q)
+    };
+    ([r1, r2], 2)
 }
 
 /// `2 n^{3/2}` for `n = ORDERS[i]`: how much the geometric bound `(64/15) h M rho^{2 - 2n} /
@@ -469,6 +494,11 @@ const ROUCHE_G: [[f64; N_RHO]; ROUCHE_ORDERS] = rouche_consts();
 /// tried for each `rho` of a fixed set.
 #[inline(always)]
 pub(crate) fn rouche_order(la: f64, lb: f64, lc: f64, h: f64, tol: f64) -> Option<usize> {
+    // eta >= 1 on the smallest ellipse (a root inside it, the usual case for loops and
+    // near-cusps): decided before the division below. `!(x < y)` also rejects NaN.
+    if !(lb * RHO_T[0][0] + la * RHO_T[1][0] < lc) {
+        return None;
+    }
     // 1/|c'| as |c'| / |c'|^2 keeps the division off the path through the square root.
     let inv = 1.0 / (lc * lc);
     let inv = lc * inv;
@@ -539,14 +569,123 @@ pub(crate) fn arclen_quadratic_hodograph<S: FnOnce() -> (f64, [Complex; 2], usiz
         // An empty or negligible interval (any rule will do), or NaN, which propagates.
         return h * l.gauss(0);
     }
+    // The roots here, so that their chain of square roots and divisions is under way before
+    // the call below.
     let (lead, r, n) = roots();
     if n == 0 {
         // Only from a zero or non-finite hodograph: any rule is exact, NaN propagates.
         return h * l.gauss(0);
     }
-    let sing = Singularities { lead, roots: &r[..n] };
+    arclen_with_roots(q, &l, lead, &r[..n], lo, hi, tol)
+}
+
+/// The part of [`arclen_quadratic_hodograph`] after the root-free bound, kept out of line so
+/// that the smooth-segment path stays small enough to inline.
+#[inline(never)]
+fn arclen_with_roots(
+    q: &[Vec2; 3],
+    l: &LocalHodograph,
+    lead: f64,
+    roots: &[Complex],
+    lo: f64,
+    hi: f64,
+    tol: f64,
+) -> f64 {
+    let h = 0.5 * (hi - lo);
+    let sing = Singularities { lead, roots };
+    // Cut at the real part of every root close to the inside of the interval: the near-cusp
+    // then sits at an end of its piece, where a low-order rule copes with it.
+    let w = hi - lo;
+    let mut cuts = [lo, hi, hi, hi];
+    let mut pieces = 1;
+    for z in roots {
+        if z.re > lo && z.re < hi && z.im.abs() < BRANCH_SPLIT * w {
+            cuts[pieces] = z.re;
+            pieces += 1;
+        }
+    }
+    // Unless a small rule suffices over the whole interval (a piece costs more than a few
+    // evaluations).
+    let max = if pieces == 1 { ORDERS.len() - 1 } else { WHOLE_MAX };
+    if let Some(i) = branch_order(lead, roots, lo, hi, tol, max) {
+        return h * l.gauss(i);
+    }
+    if pieces == 1 {
+        let mut leaves = 0;
+        return hodograph_rec(q, &sing, lo, hi, tol, MAX_DEPTH, &mut leaves).0;
+    }
+    if pieces == 3 && cuts[2] < cuts[1] {
+        cuts.swap(1, 2);
+    }
+    cuts[pieces] = hi;
+    let inv_w = 1.0 / w;
+    let mut sum = 0.0;
     let mut leaves = 0;
-    hodograph_rec(q, &sing, lo, hi, tol, MAX_DEPTH, &mut leaves).0
+    for k in 0..pieces {
+        let (a, b) = (cuts[k], cuts[k + 1]);
+        let share = tol * ((b - a) * inv_w);
+        sum += match branch_order(lead, roots, a, b, share, ORDERS.len() - 1) {
+            Some(i) => {
+                let h = 0.5 * (b - a);
+                h * LocalHodograph::new(q, 0.5 * (a + b), h).gauss(i)
+            }
+            None => hodograph_rec(q, &sing, a, b, share, MAX_DEPTH, &mut leaves).0,
+        };
+    }
+    sum
+}
+
+/// Roots closer to the real axis than this fraction of the interval, with the real part inside,
+/// are cut at (the table for roots inside a piece starts there).
+const BRANCH_SPLIT: f64 = 0.25;
+/// Largest rule (index into [`ORDERS`]) taken over a whole interval that has a root to cut at.
+const WHOLE_MAX: usize = 7;
+/// Safety factor on the tabulated model errors of [`branch_order`].
+const BRANCH_SAFETY: f64 = 2.0;
+
+/// Bin of `eps` in the branch tables: its binary exponent, clamped to the tabulated range.
+#[inline(always)]
+fn branch_bin(eps: f64) -> usize {
+    let e = ((eps.to_bits() >> 52) & 0x7ff) as i32 - 1023;
+    (e.clamp(BRANCH_KMIN, BRANCH_KMAX) - BRANCH_KMIN) as usize
+}
+
+/// The smallest rule whose estimated error on `[a, b]` is at most `tol`, from the tabulated
+/// errors of the near-cusp model (`tools/gen_branch_tables.py`): the speed is
+/// `lead prod_j |t - r_j|`, and root `j` contributes the error of the rule on
+/// `|t - r_j| = L sqrt((x - x_j)^2 + eps_j^2)` (`t = a + L x`, `eps_j = |Im r_j| / L`) times a bound of
+/// the other factor on the piece, `|c - r_o| + h`. A root at or beyond an end reads
+/// [`BRANCH_OUT`] (the model's worst case over all such positions), one inside [`BRANCH_IN`]
+/// (worst case over the inside, infinite for `eps_j < BRANCH_IN_MIN_EPS`: closer roots must have
+/// been cut at). `None`: no rule up to `ORDERS[max]` qualifies (the caller subdivides).
+#[inline(always)]
+pub(crate) fn branch_order(lead: f64, roots: &[Complex], a: f64, b: f64, tol: f64, max: usize) -> Option<usize> {
+    let l = b - a;
+    let h = 0.5 * l;
+    let c = 0.5 * (a + b);
+    let inv_l = 1.0 / l;
+    let scale = BRANCH_SAFETY * l * l * lead;
+    let row = |z: &Complex| {
+        let t = if z.re > a && z.re < b { &BRANCH_IN } else { &BRANCH_OUT };
+        &t[branch_bin(z.im.abs() * inv_l)]
+    };
+    let t0 = row(&roots[0]);
+    let (amp0, amp1, t1) = if roots.len() < 2 {
+        (scale, 0.0, t0)
+    } else {
+        // The amplitude of root j is the other factor |z - r_o| near r_j and on the piece, at most
+        // |c - r_o| + max(h, |r_j - c|) (|c - r| <= |Re| + |Im|): a far root sees the other
+        // factor's value out there, not on the interval.
+        let (r0, r1) = (roots[0], roots[1]);
+        let (d0, d1) = ((c - r0.re).abs() + r0.im.abs(), (c - r1.re).abs() + r1.im.abs());
+        (scale * (d1 + d0.max(h)), scale * (d0 + d1.max(h)), row(&r1))
+    };
+    let est = |i: usize| amp0 * t0[i] + amp1 * t1[i];
+    // `!(x <= tol)` also rejects NaN.
+    if !(est(max) <= tol) {
+        return None;
+    }
+    Some((0..max).find(|&i| est(i) <= tol).unwrap_or(max))
 }
 
 /// The a-priori recursion of [`apriori_rec`], specialised to a quadratic hodograph. Returns the
@@ -968,6 +1107,218 @@ mod tests {
             evals.push(counters::take().0);
         }
         assert!(evals.windows(2).all(|w| w[0] < w[1]), "evaluations {evals:?}");
+    }
+
+    /// The branch tables hold what `tools/gen_branch_tables.py` claims: the error of each rule
+    /// on the near-cusp model `sqrt((x - x0)^2 + eps^2)` over `[0, 1]` stays within the entry of
+    /// its `eps` bin, for branch points at or beyond an end (`BRANCH_OUT`) and inside
+    /// (`BRANCH_IN`, from `BRANCH_IN_MIN_EPS` on), at positions and sizes the generator did not
+    /// sample; and the entries do not grow with the order.
+    #[test]
+    fn branch_tables_bound_the_model_error() {
+        use crate::branch_tables::BRANCH_IN_MIN_EPS;
+        // int sqrt(u^2 + e^2) du in closed form
+        let prim = |u: f64, e: f64| 0.5 * (u * (u * u + e * e).sqrt() + e * e * (u / e).asinh());
+        let mut state: u64 = 0x5DEE_CE66_D1CE_4E5B;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut checked = 0;
+        for _ in 0..3000 {
+            let eps = 2f64.powf(-30.0 + 33.0 * next());
+            let inside = next() < 0.5;
+            let x0 = if inside { next() } else { -(4.0 * next()).powi(3) / 16.0 };
+            if inside && eps < BRANCH_IN_MIN_EPS {
+                continue;
+            }
+            let exact = prim(1.0 - x0, eps) - prim(-x0, eps);
+            let f = |x: f64| ((x - x0) * (x - x0) + eps * eps).sqrt();
+            let row = if inside { &BRANCH_IN } else { &BRANCH_OUT }[branch_bin(eps)];
+            for i in 0..ORDERS.len() {
+                let err = (gauss(RULES[i], 0.0, 1.0, &f) - exact).abs();
+                // Round-off of the closed form and the sum: a few ulps of the integral.
+                assert!(
+                    err <= row[i] + 8.0 * f64::EPSILON * exact,
+                    "x0 {x0} eps {eps:e}: {} points err {err:e} > table {:e}",
+                    ORDERS[i],
+                    row[i]
+                );
+                if i > 0 {
+                    assert!(row[i] <= row[i - 1]);
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 20_000);
+    }
+
+    /// Reference length for the adversarial tests, independent of the rule choice: adaptive
+    /// 16-point Gauss on 64 equal pieces, also cut at every root's real part.
+    fn reference_range(q: &[Vec2; 3], a: f64, b: f64) -> f64 {
+        let f = |t: f64| ((q[0] * t + q[1]) * t + q[2]).hypot();
+        let z = |v: Vec2| Complex::new(v.x, v.y);
+        let (r, n) = complex_quadratic_roots(z(q[0]), z(q[1]), z(q[2]));
+        let mut cuts: Vec<f64> = (0..=64).map(|i| a + (b - a) * i as f64 / 64.0).collect();
+        cuts.extend(r[..n].iter().map(|z| z.re).filter(|&p| p > a && p < b));
+        cuts.sort_by(f64::total_cmp);
+        let crude: f64 = cuts.windows(2).map(|w| gauss16(w[0], w[1], &f)).sum();
+        cuts.windows(2)
+            .map(|w| integrate_adaptive(&f, w[0], w[1], 1e-17 * crude, crude))
+            .sum()
+    }
+
+    fn hodograph_of(p: [(f64, f64); 4]) -> [Vec2; 3] {
+        let p: [Vec2; 4] = core::array::from_fn(|k| Vec2::new(p[k].0, p[k].1));
+        let (d0, d1, d2) = (p[1] - p[0], p[2] - p[1], p[3] - p[2]);
+        [3.0 * (d0 - 2.0 * d1 + d2), 6.0 * (d1 - d0), 3.0 * d0]
+    }
+
+    /// The cut-at-the-root path on adversarial cubics: exact and near cusps (the hodograph's root
+    /// `1e-14` to `1e-1` off the real axis, inside the range, at its ends and just beyond them),
+    /// loops, coincident control points, straight lines that reverse, and scaled copies; whole
+    /// curve and sub-ranges, accuracies `1e-2` to `1e-12`: the error stays within the request
+    /// (above the relative round-off floor).
+    #[test]
+    fn near_cusps_and_degenerate_cubics_meet_the_request() {
+        let mut curves: Vec<[(f64, f64); 4]> = vec![
+            [(0.0, 0.0), (1.0, 1.0), (0.0, 1.0), (1.0, 0.0)], // exact cusp at t = 1/2
+            [(0.0, 0.0), (2.0, 1.0), (-1.0, 1.0), (1.0, 0.0)], // loop
+            [(0.0, 0.0), (0.0, 0.0), (1.0, 1.0), (2.0, 0.0)], // p0 = p1
+            [(0.0, 0.0), (1.0, 1.0), (2.0, 0.0), (2.0, 0.0)], // p2 = p3
+            [(0.0, 0.0), (0.0, 0.0), (1.0, 0.0), (1.0, 0.0)], // p0 = p1, p2 = p3
+            [(1.0, 2.0), (1.0, 2.0), (1.0, 2.0), (1.0, 2.0)], // a point
+            [(0.0, 0.0), (3.0, 0.0), (-1.0, 0.0), (2.0, 0.0)], // a line that reverses twice
+            [(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0)], // uniform line
+            [(0.0, 0.0), (2.0, 2.0), (-1.0, 2.0), (1.0, 0.0)], // loop touching itself
+        ];
+        // Near-cusps: the cusp curve with p2 moved by delta (the root leaves the real axis by
+        // about delta), and the cusp moved along the parameter.
+        for &delta in &[1e-14, 1e-10, 1e-7, 1e-5, 1e-3, 1e-2, 1e-1] {
+            for &shift in &[0.0, 0.3, -0.45] {
+                let p2 = (0.0 + shift, 1.0 + delta);
+                curves.push([(0.0, 0.0), (1.0 + shift, 1.0), p2, (1.0, 0.0)]);
+            }
+        }
+        let scaled: Vec<[(f64, f64); 4]> = curves
+            .iter()
+            .flat_map(|c| [1e-4, 1e3].map(|s| c.map(|(x, y)| (s * x, s * y))))
+            .collect();
+        curves.extend(scaled);
+        let mut checked = 0;
+        for c in &curves {
+            let q = hodograph_of(*c);
+            let z = |v: Vec2| Complex::new(v.x, v.y);
+            let (r, n) = complex_quadratic_roots(z(q[0]), z(q[1]), z(q[2]));
+            let lead = match n {
+                2 => q[0].hypot(),
+                1 => q[1].hypot(),
+                _ => q[2].hypot(),
+            };
+            // Ranges: the whole curve, ranges ending at, just before and just after each root.
+            let mut ranges = vec![(0.0, 1.0), (0.3, 0.8)];
+            for z in &r[..n] {
+                let p = z.re.clamp(0.0, 1.0);
+                for e in [0.0, 1e-9, 1e-3, -1e-9, -1e-3] {
+                    let p = (p + e).clamp(0.0, 1.0);
+                    ranges.push((0.0, p));
+                    ranges.push((p, 1.0));
+                }
+            }
+            for (a, b) in ranges {
+                let want = reference_range(&q, a, b);
+                for tol in [1e-2, 1e-4, 1e-6, 1e-9, 1e-12] {
+                    let got = arclen_quadratic_hodograph(&q, || (lead, r, n), a, b, tol);
+                    let err = (got - want).abs();
+                    assert!(
+                        err <= tol + 4e-15 * want,
+                        "{c:?} [{a}, {b}] tol {tol:e}: {got} vs {want} (err {err:e})"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+    }
+
+    /// Cutting at a near-cusp makes loose requests cheap: the curve whose hodograph root is
+    /// `1e-4` off the real axis at `t = 0.64` takes at most 16 points at `1e-3` (the
+    /// Bernstein-ellipse bound alone forces graded splits toward the root there), and the work
+    /// still grows with the request.
+    #[test]
+    fn near_cusp_at_loose_accuracy_takes_few_points() {
+        // z(t) = 14 (t - 0.64 - 1e-4 i)(t - 0.002 + 0.116 i): x' + i y' with real coefficients
+        let (r1, r2) = (Complex::new(0.64, 1e-4), Complex::new(0.002, -0.116));
+        let lead = Complex::new(14.0, 0.0);
+        let b = lead.mul(r1.add(r2)).scale(-1.0);
+        let c = lead.mul(r1.mul(r2));
+        let q = [
+            Vec2::new(lead.re, lead.im),
+            Vec2::new(b.re, b.im),
+            Vec2::new(c.re, c.im),
+        ];
+        let roots = || {
+            let z = |v: Vec2| Complex::new(v.x, v.y);
+            let (r, n) = complex_quadratic_roots(z(q[0]), z(q[1]), z(q[2]));
+            (q[0].hypot(), r, n)
+        };
+        let want = reference_range(&q, 0.0, 1.0);
+        let mut evals = Vec::new();
+        for tol in [1e-3, 1e-6, 1e-9] {
+            counters::take();
+            let got = arclen_quadratic_hodograph(&q, roots, 0.0, 1.0, tol);
+            evals.push(counters::take().0);
+            assert!((got - want).abs() <= tol, "tol {tol:e}: {got} vs {want}");
+        }
+        assert!(evals[0] <= 16, "evaluations {evals:?}");
+        assert!(evals.windows(2).all(|w| w[0] < w[1]), "evaluations {evals:?}");
+    }
+
+    /// The root finder's short-chain arrangement keeps both roots accurate: nearly linear
+    /// hodographs (one root far away, where `-b/a - r1` would cancel), double roots, and roots
+    /// on the real axis.
+    #[test]
+    fn complex_roots_accurate_when_far_apart_or_double() {
+        let cases = [
+            // (a, r1, r2, relative accuracy): a (z - r1)(z - r2); a double root is only
+            // determined to about the square root of the round-off.
+            (
+                Complex::new(1e-9, 2e-9),
+                Complex::new(0.3, 0.01),
+                Complex::new(-4e8, 1e8),
+                1e-12,
+            ),
+            (
+                Complex::new(1.0, 0.5),
+                Complex::new(0.25, -0.125),
+                Complex::new(0.25, -0.125),
+                1e-7,
+            ),
+            (
+                Complex::new(-3.0, 1.0),
+                Complex::new(0.5, 0.0),
+                Complex::new(0.75, 0.0),
+                1e-12,
+            ),
+            (
+                Complex::new(2.0, 0.0),
+                Complex::new(1e-12, 0.0),
+                Complex::new(5.0, 3.0),
+                1e-12,
+            ),
+        ];
+        for (a, r1, r2, acc) in cases {
+            let b = a.mul(r1.add(r2)).scale(-1.0);
+            let c = a.mul(r1.mul(r2));
+            let (r, n) = complex_quadratic_roots(a, b, c);
+            assert_eq!(n, 2);
+            for want in [r1, r2] {
+                let best = r.iter().map(|z| z.sub(want).abs()).fold(f64::INFINITY, f64::min);
+                assert!(best <= acc * want.abs().max(1e-3), "{a:?} {r1:?} {r2:?}: got {r:?}");
+            }
+        }
     }
 
     #[test]

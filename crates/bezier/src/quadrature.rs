@@ -32,7 +32,7 @@
 //! piece, where the speed looks like `|t - p|`, which a rule integrates almost exactly, instead
 //! of a kink inside, which no rule does. Each piece takes the smallest rule whose tabulated error
 //! on the model `sqrt((x - x0)^2 + eps^2)` (`tools/gen_branch_tables.py`: the worst case over
-//! branch-point positions and binary bins of `eps`, the root's distance from the real axis over
+//! branch-point positions and half-octave bins of `eps`, the root's distance from the real axis over
 //! the piece's length), times a bound of the other factor of the speed and a safety factor 2,
 //! fits the piece's share of the tolerance; a whole interval whose rule is small is not cut. This
 //! is an estimate (the model is exact, the product with the other factor is not), checked on
@@ -643,11 +643,20 @@ const WHOLE_MAX: usize = 7;
 /// Safety factor on the tabulated model errors of [`branch_order`].
 const BRANCH_SAFETY: f64 = 2.0;
 
-/// Bin of `eps` in the branch tables: its binary exponent, clamped to the tabulated range.
+/// Bin of `eps` in the branch tables: its binary exponent (clamped to the tabulated range) and
+/// the top bit of its mantissa, which splits the octave at `1.5`.
 #[inline(always)]
 fn branch_bin(eps: f64) -> usize {
-    let e = ((eps.to_bits() >> 52) & 0x7ff) as i32 - 1023;
-    (e.clamp(BRANCH_KMIN, BRANCH_KMAX) - BRANCH_KMIN) as usize
+    let bits = eps.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as i32 - 1023;
+    let top = ((bits >> 51) & 1) as usize;
+    if e < BRANCH_KMIN {
+        return 0;
+    }
+    if e > BRANCH_KMAX {
+        return 2 * (BRANCH_KMAX - BRANCH_KMIN) as usize + 1;
+    }
+    2 * (e - BRANCH_KMIN) as usize + top
 }
 
 /// The smallest rule whose estimated error on `[a, b]` is at most `tol`, from the tabulated

@@ -1,6 +1,6 @@
 """Regenerate src/branch_tables.rs: the error of each stored Gauss-Legendre rule on the model
-integrand of a near-cusp, `sqrt((x - x0)^2 + eps^2)` on `[0, 1]`, maximised over `eps` in binary
-bins and over the position `x0` (outside the interval or at an end: table OUT; anywhere in it,
+integrand of a near-cusp, `sqrt((x - x0)^2 + eps^2)` on `[0, 1]`, maximised over `eps` in
+half-octave bins and over the position `x0` (outside the interval or at an end: table OUT; anywhere in it,
 for `eps >= 2^IN_MIN`: table IN). Long double arithmetic, exact integral in closed form.
 
 Usage: python3 tools/gen_branch_tables.py > src/branch_tables.rs && rustfmt --edition 2021 src/branch_tables.rs
@@ -32,16 +32,22 @@ def errors(n, x0, e):
     return np.abs(q - ex)
 
 
-def eps_samples(k):
-    if k == KMAX:
-        return LD(2.0) ** k * np.geomspace(1, 2, 9).astype(LD)
-    return LD(2.0) ** k * np.geomspace(1, 2, 9).astype(LD)
+def bins():
+    """Each binary exponent `k` split by the top bit of the mantissa: `eps` in `[1, 1.5) 2^k` and in
+    `[1.5, 2) 2^k` (what `quadrature::branch_bin` reads)."""
+    return [(k, h) for k in range(KMIN, KMAX + 1) for h in (0, 1)]
+
+
+def eps_samples(b):
+    k, h = b
+    lo, hi = (1.0, 1.5) if h == 0 else (1.5, 2.0)
+    return LD(2.0) ** k * np.geomspace(lo, hi, 7).astype(LD)
 
 
 def table_out(n):
     row = []
-    for k in range(KMIN, KMAX + 1):
-        es = eps_samples(k)
+    for b in bins():
+        es = eps_samples(b)
         ds = []
         for e in es:
             rel = e * np.array([0, 0.03, 0.1, 0.2, 0.3, 0.5, 0.7, 1, 1.5, 2, 3, 5, 10, 30], dtype=LD)
@@ -53,9 +59,9 @@ def table_out(n):
 
 
 def table_in(n):
-    row = [np.inf] * (IN_MIN - KMIN)
-    for k in range(IN_MIN, KMAX + 1):
-        es = eps_samples(k)
+    row = [np.inf] * (2 * (IN_MIN - KMIN))
+    for b in bins()[2 * (IN_MIN - KMIN):]:
+        es = eps_samples(b)
         best = LD(0)
         for e in es:
             x0 = np.concatenate([np.linspace(0, 0.5, 257), np.geomspace(1e-5, 0.01, 20)]).astype(LD)
@@ -92,7 +98,8 @@ def emit(name, rows, doc):
     print(f"pub(crate) const {name}: [[f64; {len(rows)}]; {nb}] = [")
     for k in range(nb):
         vals = ", ".join(up(r[k]) for r in rows)
-        print(f"    // eps in [2^{KMIN + k}, 2^{KMIN + k + 1})")
+        e, h = bins()[k]
+        print(f"    // eps in [{1 + 0.5 * h}, {1.5 + 0.5 * h}) 2^{e}")
         print(f"    [{vals}],")
     print("];")
 
@@ -114,10 +121,11 @@ def main():
     print("#[cfg(test)]")
     print(f"pub(crate) const BRANCH_IN_MIN_EPS: f64 = {2.0 ** IN_MIN};")
     emit("BRANCH_OUT", out,
-         "`[k][order]`: largest error of the rule over `eps` in `[2^k, 2^{k+1})` (the first bin down to 0, "
-         "the last up to infinity) and `x0 <= 0` (a branch point at or beyond an end), not increasing with the order.")
+         "`[2 (k - BRANCH_KMIN) + h][order]`: largest error of the rule over `eps` in "
+         "`[1 + h/2, 3/2 + h/2) 2^k` (the first bin down to 0, the last up to infinity) and `x0 <= 0` "
+         "(a branch point at or beyond an end), not increasing with the order.")
     emit("BRANCH_IN", inn,
-         "`[k][order]`: as [`BRANCH_OUT`] but over `x0` anywhere in `[0, 1]`; infinite below `BRANCH_IN_MIN_EPS`.")
+         "As [`BRANCH_OUT`] but over `x0` anywhere in `[0, 1]`; infinite below `BRANCH_IN_MIN_EPS`.")
 
 
 if __name__ == "__main__":

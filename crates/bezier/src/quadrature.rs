@@ -638,8 +638,9 @@ fn arclen_with_roots(
 /// Roots closer to the real axis than this fraction of the interval, with the real part inside,
 /// are cut at (the table for roots inside a piece starts there).
 const BRANCH_SPLIT: f64 = 0.25;
-/// Largest rule (index into [`ORDERS`]) taken over a whole interval that has a root to cut at.
-const WHOLE_MAX: usize = 7;
+/// Largest rule (index into [`ORDERS`], 32 points) taken over a whole interval that has a root to
+/// cut at: one piece of 32 points costs less than two of 16 (the typical arc at `1e-12`).
+const WHOLE_MAX: usize = 8;
 /// Safety factor on the tabulated model errors of [`branch_order`].
 const BRANCH_SAFETY: f64 = 2.0;
 

@@ -376,8 +376,9 @@ impl LocalHodograph {
         sum
     }
 
-    /// [`gauss_fixed`](Self::gauss_fixed) with the rule `RULES[i]` (`ORDERS[i]` points).
-    #[inline]
+    /// [`gauss_fixed`](Self::gauss_fixed) with the rule `RULES[i]` (`ORDERS[i]` points). Always
+    /// inlined: the rule dispatch then sits next to the decision that picks it.
+    #[inline(always)]
     pub fn gauss(&self, i: usize) -> f64 {
         #[cfg(test)]
         counters::add(ORDERS[i.min(ORDERS.len() - 1)]);

@@ -71,6 +71,56 @@ def test_arclen_batch_equals_per_curve() -> None:
 # --- vectorised = per point -------------------------------------------------------------------
 
 
+def cubic_length_reference(p: np.ndarray) -> float:
+    """Length of a cubic to about 1e-14 relative: 16-point Gauss-Legendre on 200 pieces, also cut at
+    the real part of every complex root of the hodograph x'(t) + i y'(t) (near-cusps sit at a piece
+    end) and graded toward it."""
+    d = np.diff(p, axis=0)
+    q = np.array([3 * (d[0] - 2 * d[1] + d[2]), 6 * (d[1] - d[0]), 3 * d[0]])
+    z = q[:, 0] + 1j * q[:, 1]
+    cuts = np.linspace(0.0, 1.0, 201)
+    if abs(z[0]) > 1e-14 * np.abs(z).max():
+        roots = np.roots(z).real
+        grading = np.concatenate([[0.0], 10.0 ** -np.arange(3.0, 15.0)])
+        near = (roots[:, None] + np.concatenate([grading, -grading])).ravel()
+        cuts = np.union1d(cuts, near[(near > 0.0) & (near < 1.0)])
+    x, w = np.polynomial.legendre.leggauss(16)
+    a, b = cuts[:-1, None], cuts[1:, None]
+    t = 0.5 * (a + b) + 0.5 * (b - a) * x
+    v = (q[0] * t[..., None] + q[1]) * t[..., None] + q[2]
+    return float(np.sum(0.5 * (b - a) * w * np.hypot(v[..., 0], v[..., 1])))
+
+
+def adversarial_cubics() -> np.ndarray:
+    """Exact and near cusps (the hodograph's root 1e-12 to 1e-1 off the real axis, moved along the
+    curve), loops, coincident control points, lines that reverse, and a scaled copy of each."""
+    base = [
+        [[0, 0], [1, 1], [0, 1], [1, 0]],
+        [[0, 0], [2, 1], [-1, 1], [1, 0]],
+        [[0, 0], [0, 0], [1, 1], [2, 0]],
+        [[0, 0], [1, 1], [2, 0], [2, 0]],
+        [[0, 0], [0, 0], [1, 0], [1, 0]],
+        [[0, 0], [3, 0], [-1, 0], [2, 0]],
+        [[0, 0], [2, 2], [-1, 2], [1, 0]],
+    ]
+    for delta in (1e-12, 1e-8, 1e-5, 1e-3, 1e-1):
+        for shift in (0.0, 0.3, -0.45):
+            base.append([[0, 0], [1 + shift, 1], [shift, 1 + delta], [1, 0]])
+    pts = np.array(base, dtype=float)
+    return np.concatenate([pts, 1e3 * pts])
+
+
+@pytest.mark.parametrize("accuracy", [1e-3, 1e-6, 1e-9, 1e-12])
+def test_near_cusps_and_degenerate_cubics_meet_the_accuracy(accuracy: float) -> None:
+    pts = adversarial_cubics()
+    want = np.array([cubic_length_reference(p) for p in pts])
+    got = bezier.arclen_batch(pts, accuracy)
+    # Requests below ~1e-15 of the length are raised to it (round-off).
+    np.testing.assert_array_less(np.abs(got - want), accuracy + 1e-14 * want)
+    for p, g in zip(pts, got):
+        assert bezier.Bezier(p).arclen(accuracy) == g
+
+
 @pytest.mark.parametrize("index", [0, 1, 2])
 def test_vectorised_equals_per_point(index: int) -> None:
     c = curves()[index]

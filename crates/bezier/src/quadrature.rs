@@ -1204,6 +1204,10 @@ mod tests {
             [(0.0, 0.0), (3.0, 0.0), (-1.0, 0.0), (2.0, 0.0)], // a line that reverses twice
             [(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0)], // uniform line
             [(0.0, 0.0), (2.0, 2.0), (-1.0, 2.0), (1.0, 0.0)], // loop touching itself
+            // Elevated quadratics (a linear hodograph, one root): the parabola y = x^2 and a
+            // segment that turns back at t = 1/2.
+            [(0.0, 0.0), (1.0 / 3.0, 0.0), (2.0 / 3.0, 1.0 / 3.0), (1.0, 1.0)],
+            [(0.0, 0.0), (2.0 / 3.0, 0.0), (2.0 / 3.0, 0.0), (0.0, 0.0)],
         ];
         // Near-cusps: the cusp curve with p2 moved by delta (the root leaves the real axis by
         // about delta), and the cusp moved along the parameter.

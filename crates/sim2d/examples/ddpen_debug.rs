@@ -7,13 +7,15 @@
 //! cargo run --release -p sim2d --example ddpen_debug -- trap:l:6 ddpen 0.5 b  # w_subgoal 0.5, backward
 //! ```
 //!
-//! `DDPEN_SNAPSHOTS=DIR` also writes a PNG of the costmap, robot, local goal, sub-goals and plan
+//! `DDPEN_RUN=K` runs a scenario with the noise seed of run `K` of `ddpen-table --seed 1` (default:
+//! the run config's seed). Every contact onset is printed with the plan's next knots and their
+//! distance-field clearance. `DDPEN_SNAPSHOTS=DIR` also writes a PNG of the costmap, robot, local goal, sub-goals and plan
 //! every 2 s of simulated time; `DDPEN_MODEL=FILE` runs `ddpen` with other weights.
 
 use sim2d::run::{CycleView, Observer};
 use sim2d::{run_scenario_with, PlannerKind, RunConfig, Scenario};
 
-struct Trace(usize, Option<std::path::PathBuf>);
+struct Trace(usize, Option<std::path::PathBuf>, usize);
 
 /// Writes the inflated costmap (grey), the robot (red), the local goal (blue), the sub-goals
 /// (green) and the plan (purple) to `path` as a 400 x 400 PNG.
@@ -59,6 +61,34 @@ fn snapshot(path: &std::path::Path, c: &CycleView<'_>) -> Result<(), Box<dyn std
 impl Observer for Trace {
     fn on_cycle(&mut self, c: &CycleView<'_>) -> sim2d::Result<()> {
         self.0 += 1;
+        if c.collisions > self.2 {
+            self.2 = c.collisions;
+            println!(
+                "CONTACT t {:5.1} pose ({:6.2},{:6.2},{:5.2}) cmd ({:5.2},{:5.2}) clearance {:.2}",
+                c.time,
+                c.pose[0],
+                c.pose[1],
+                c.pose[2],
+                c.command[0],
+                c.command[1],
+                c.perception.field().sample([c.pose[0], c.pose[1]]).0
+            );
+            if let Some(p) = c.plan {
+                let knots: Vec<String> = p
+                    .states
+                    .iter()
+                    .zip(&p.controls)
+                    .take(10)
+                    .map(|(s, u)| {
+                        let d = c.perception.field().sample([s[0], s[1]]).0;
+                        format!("({:.2},{:.2}|{:.2},{:.2}|{:.2})", s[0], s[1], u[0], u[1], d)
+                    })
+                    .collect();
+                println!("  plan {}", knots.join(" "));
+                let subs: Vec<String> = p.guide.iter().map(|g| format!("({:.2},{:.2})", g[0], g[1])).collect();
+                println!("  sub [{}] goal ({:.2},{:.2})", subs.join(" "), c.goal[0], c.goal[1]);
+            }
+        }
         if let Some(dir) = &self.1 {
             if self.0 % 20 == 0 {
                 let path = dir.join(format!("t{:06.1}.png", c.time));
@@ -120,12 +150,19 @@ fn main() -> sim2d::Result<()> {
     if a.get(4).is_some_and(|d| d == "b") {
         config.direction = sim2d::Direction::Backward;
     }
+    if let Some(k) = std::env::var_os("DDPEN_RUN") {
+        let k: usize = k
+            .to_string_lossy()
+            .parse()
+            .map_err(|_| sim2d::Error::invalid("DDPEN_RUN", "not a run index"))?;
+        config.seed = sim2d::batch::run_seed(1, k, config.direction);
+    }
     // DDPEN_SNAPSHOTS=<dir>: a costmap PNG every 2 s of simulated time.
     let dir = std::env::var_os("DDPEN_SNAPSHOTS").map(std::path::PathBuf::from);
     if let Some(d) = &dir {
         std::fs::create_dir_all(d).map_err(|e| sim2d::Error::invalid("DDPEN_SNAPSHOTS", e.to_string()))?;
     }
-    let r = run_scenario_with(&s, &config, &mut [&mut Trace(0, dir)])?;
+    let r = run_scenario_with(&s, &config, &mut [&mut Trace(0, dir, 0)])?;
     println!(
         "{} {:.1} s progress {:.1} m collisions {}",
         r.outcome, r.time_s, r.progress_m, r.collisions

@@ -31,6 +31,13 @@
 //! new one is clearly cheaper ([`PATH_HYSTERESIS`]). All of this uses a flood fill of the costmap
 //! (reachability), never the network's own path.
 //!
+//! A recovery behaviour, also ours: a robot that has stayed within [`STUCK_RADIUS`] for
+//! [`STUCK_TIME`] (sub-goals that lead into a slot too narrow to turn in, or that keep changing
+//! sides) backs out along its own trail for [`BACKUP_DISTANCE`], the way it came, so free of
+//! obstacles, and the exit it was heading for counts as a dead end. For [`KEEPOUT_TIME`] the spot
+//! is a lethal disc of radius [`KEEPOUT_RADIUS`] on the costmap the sub-goal source and the exit
+//! search see, so that the network does not lead the robot straight back in.
+//!
 //! ```
 //! use sim2d::ddpen::MapFrame;
 //! use subgoal_infer::grid::GridGeometry;
@@ -48,9 +55,9 @@ use subgoal_infer::grid::{path_cost, AStar, AStarParams, Costmap, GridGeometry};
 use subgoal_infer::SubgoalModel;
 
 use crate::error::{Error, Result};
-use crate::perception::Perception;
 use crate::planner::{pursuit_guess, DdpParams, DdpPlanner, Plan, PlanRequest, Planner};
 use ddp_core::Vector;
+use subgoal_infer::grid::LETHAL;
 
 /// Path steps of the A* oracle's sub-goals (§II-D: 30, 50 and 70).
 pub const ORACLE_STEPS: [usize; 3] = [30, 50, 70];
@@ -236,20 +243,44 @@ pub const EXIT_CELLS: usize = 2;
 /// Score bonus of cells near the previous exit (m), see [`GoalRepair::best_exit`].
 pub const EXIT_STICKINESS: f64 = 1.0;
 
+/// A [`DdpenPlanner`] that has stayed within this distance (m) for [`STUCK_TIME`] backs out.
+pub const STUCK_RADIUS: f64 = 0.5;
+
+/// See [`STUCK_RADIUS`] (s).
+pub const STUCK_TIME: f64 = 6.0;
+
+/// How far (m) a stuck [`DdpenPlanner`] backs out along its trail.
+pub const BACKUP_DISTANCE: f64 = 3.0;
+
+/// Spacing (m) of the trail's points.
+const TRAIL_SPACING: f64 = 0.25;
+
+/// Trail points kept (the most recent, [`TRAIL_SPACING`] apart).
+const TRAIL_POINTS: usize = 64;
+
+/// Longest a back-out lasts (s) before the planner resumes.
+const BACKUP_TIME: f64 = 12.0;
+
+/// A back-out that gets no [`BACKUP_STEP`] closer to its end in this long (s) is over.
+const BACKUP_PATIENCE: f64 = 2.0;
+
+/// See [`BACKUP_PATIENCE`] (m).
+const BACKUP_STEP: f64 = 0.1;
+
+/// Radius (m) of the keep-out disc at a place where a [`DdpenPlanner`] got stuck.
+pub const KEEPOUT_RADIUS: f64 = 0.5;
+
+/// How long (s) a keep-out disc stays.
+pub const KEEPOUT_TIME: f64 = 60.0;
+
 /// Where a DDPEN planner's sub-goals come from (see the module docs).
 pub trait SubgoalSource: Send {
     /// Short name (`"astar"`, `"network"`).
     fn name(&self) -> &str;
     /// Sub-goals in the world frame, in path order, for a robot at `state` heading for the local
-    /// goal `goal`, seen on `perception`'s costmap; written to `out` (cleared first). Empty when
-    /// the source has none (the planner then runs as vanilla DDP).
-    fn subgoals(
-        &mut self,
-        perception: &Perception,
-        state: [f64; 3],
-        goal: [f64; 2],
-        out: &mut Vec<[f64; 2]>,
-    ) -> Result<()>;
+    /// goal `goal`, seen on the inflated costmap `map`; written to `out` (cleared first). Empty
+    /// when the source has none (the planner then runs as vanilla DDP).
+    fn subgoals(&mut self, map: &Costmap, state: [f64; 3], goal: [f64; 2], out: &mut Vec<[f64; 2]>) -> Result<()>;
 }
 
 /// The A* oracle: sub-goals at path steps [`ORACLE_STEPS`] (clamped to the path's end on short
@@ -413,15 +444,8 @@ impl SubgoalSource for AstarSubgoals {
         "astar"
     }
 
-    fn subgoals(
-        &mut self,
-        perception: &Perception,
-        state: [f64; 3],
-        goal: [f64; 2],
-        out: &mut Vec<[f64; 2]>,
-    ) -> Result<()> {
+    fn subgoals(&mut self, map: &Costmap, state: [f64; 3], goal: [f64; 2], out: &mut Vec<[f64; 2]>) -> Result<()> {
         out.clear();
-        let map = perception.costmap();
         // The sub-goal cells' buffer is kept between cycles (no allocation per plan).
         let mut cells = std::mem::take(&mut self.subgoal_cells);
         if self.search_cells(map, [state[0], state[1]], goal, &mut cells) {
@@ -464,15 +488,8 @@ impl SubgoalSource for NetworkSubgoals {
         "network"
     }
 
-    fn subgoals(
-        &mut self,
-        perception: &Perception,
-        state: [f64; 3],
-        goal: [f64; 2],
-        out: &mut Vec<[f64; 2]>,
-    ) -> Result<()> {
+    fn subgoals(&mut self, map: &Costmap, state: [f64; 3], goal: [f64; 2], out: &mut Vec<[f64; 2]>) -> Result<()> {
         out.clear();
-        let map = perception.costmap();
         let frame = MapFrame::of(map.geometry());
         let _ = state;
         let predicted = self.model.predict(map.cells(), frame.to_map(goal))?;
@@ -552,6 +569,18 @@ pub struct DdpenPlanner {
     repair: GoalRepair,
     path: Vec<[f64; 2]>,
     guess: Vec<Vector<2>>,
+    /// The robot's trail, oldest first, [`TRAIL_SPACING`] apart.
+    trail: std::collections::VecDeque<[f64; 2]>,
+    /// Where and when the robot last moved [`STUCK_RADIUS`] away.
+    anchor: ([f64; 2], f64),
+    /// A back-out in progress: its path (from the robot back along the trail) and its deadline.
+    backup: Option<(Vec<[f64; 2]>, f64)>,
+    /// During a back-out: the closest it has come to its end (m), and when.
+    backup_best: (f64, f64),
+    /// Places the robot got stuck in (world) and when.
+    keepouts: Vec<([f64; 2], f64)>,
+    /// The costmap with the keep-out discs (reused).
+    scratch: Option<Costmap>,
 }
 
 impl DdpenPlanner {
@@ -576,7 +605,151 @@ impl DdpenPlanner {
             repair: GoalRepair::default(),
             path: Vec::new(),
             guess: vec![Vector::<2>::zeros(); params.horizon],
+            trail: std::collections::VecDeque::with_capacity(TRAIL_POINTS),
+            anchor: ([f64::NAN; 2], 0.0),
+            backup: None,
+            backup_best: (f64::INFINITY, 0.0),
+            keepouts: Vec::new(),
+            scratch: None,
         })
+    }
+
+    /// `map` with the keep-out discs younger than [`KEEPOUT_TIME`] stamped on (in the reused
+    /// scratch map), or `None` when there are none.
+    fn stamp_keepouts(&mut self, map: &Costmap, time: f64) -> Option<Costmap> {
+        self.keepouts.retain(|&(_, t)| time - t < KEEPOUT_TIME);
+        if self.keepouts.is_empty() {
+            return None;
+        }
+        let mut out = match self.scratch.take() {
+            Some(mut m) if m.geometry() == map.geometry() => {
+                m.cells_mut().copy_from_slice(map.cells());
+                m
+            }
+            _ => map.clone(),
+        };
+        let g = *map.geometry();
+        let r = KEEPOUT_RADIUS;
+        let n = (r / g.resolution()).ceil() as i64;
+        for &(c, _) in &self.keepouts {
+            for dy in -n..=n {
+                for dx in -n..=n {
+                    let p = [c[0] + dx as f64 * g.resolution(), c[1] + dy as f64 * g.resolution()];
+                    if dist(p, c) <= r {
+                        out.mark(p, LETHAL);
+                    }
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// Whether a back-out is in progress (see the module docs).
+    pub fn backing_out(&self) -> bool {
+        self.backup.is_some()
+    }
+
+    /// Updates the trail and the stuck detector with the robot at `xy` at `time`; starts a
+    /// back-out (returns `true`) when the robot is stuck and its trail leads somewhere.
+    fn watch(&mut self, xy: [f64; 2], time: f64) -> bool {
+        if self.trail.back().is_none_or(|&p| dist(p, xy) >= TRAIL_SPACING) {
+            if self.trail.len() == TRAIL_POINTS {
+                self.trail.pop_front();
+            }
+            self.trail.push_back(xy);
+        }
+        if !(dist(self.anchor.0, xy) <= STUCK_RADIUS) {
+            self.anchor = (xy, time);
+            return false;
+        }
+        if time - self.anchor.1 < STUCK_TIME {
+            return false;
+        }
+        self.anchor = (xy, time);
+        // Back along the trail from where the robot last was outside twice the stuck radius
+        // (its dithering in between skipped), for BACKUP_DISTANCE.
+        let mut path = vec![xy];
+        let mut length = 0.0;
+        let mut outside = false;
+        for &p in self.trail.iter().rev() {
+            outside |= dist(p, xy) > 2.0 * STUCK_RADIUS;
+            if !outside {
+                continue;
+            }
+            length += dist(*path.last().expect("not empty"), p);
+            path.push(p);
+            if length >= BACKUP_DISTANCE {
+                break;
+            }
+        }
+        if length < 0.5 * BACKUP_DISTANCE {
+            // No trail to speak of (the start of the run).
+            return false;
+        }
+        // The exit in force led here: avoid it from now on.
+        if let (true, Some(t)) = (self.exit, self.target) {
+            if self.dead_ends.len() == DEAD_END_MEMORY {
+                self.dead_ends.remove(0);
+            }
+            self.dead_ends.push(t);
+        }
+        self.exit = false;
+        self.keepouts.push((xy, time));
+        self.backup_best = (f64::INFINITY, time);
+        self.backup = Some((path, time + BACKUP_TIME));
+        true
+    }
+
+    /// One cycle of a back-out: sub-goals 1, 2 and 3 m back along its path, backing along it;
+    /// `false` once it is over.
+    fn back_out(&mut self, request: &PlanRequest<'_>, t: Instant) -> Result<bool> {
+        let Some((path, deadline)) = &self.backup else {
+            return Ok(false);
+        };
+        let xy = [request.state[0], request.state[1]];
+        let end = *path.last().expect("at least two points");
+        let left = dist(xy, end);
+        if left < self.backup_best.0 - BACKUP_STEP {
+            self.backup_best = (left, request.time);
+        }
+        let stuck = request.time - self.backup_best.1 > BACKUP_PATIENCE;
+        if request.time >= *deadline || left <= STUCK_RADIUS || stuck {
+            self.backup = None;
+            self.ddp.restrict_speed(None);
+            // The trail behind is where the robot has just been: start afresh.
+            self.trail.clear();
+            return Ok(false);
+        }
+        self.subgoals.clear();
+        let mut along = 0.0;
+        let mut next = 1.0;
+        for w in path.windows(2) {
+            along += dist(w[0], w[1]);
+            while along >= next && self.subgoals.len() < 3 {
+                self.subgoals.push(w[1]);
+                next += 1.0;
+            }
+        }
+        while self.subgoals.len() < 3 {
+            self.subgoals.push(end);
+        }
+        self.ddp.set_subgoals(&self.subgoals)?;
+        // Reversing only: the way back is free, turning round in a slot may not be.
+        self.ddp.restrict_speed(Some((f64::NEG_INFINITY, 0.0)));
+        pursuit_guess(self.ddp.params(), request.state, path, 0.5, true, &mut self.guess);
+        self.ddp.set_initial_guess(&self.guess)?;
+        self.ddp.plan_mut().setup_seconds = 0.0;
+        {
+            let plan = self.ddp.plan_mut();
+            plan.guide.clear();
+            plan.guide.extend_from_slice(&self.subgoals);
+            plan.subgoal_seconds = 0.0;
+        }
+        let aimed = PlanRequest { goal: end, ..*request };
+        self.ddp.optimise(&aimed, t)?;
+        // Ask for fresh sub-goals once the back-out ends.
+        self.target = None;
+        Ok(true)
     }
 
     /// `ddpen-oracle`: A* sub-goals.
@@ -609,8 +782,7 @@ impl DdpenPlanner {
     /// in free space that is the local goal itself, and round an obstacle the exit on the cheaper
     /// way round, kept unless another becomes clearly better. Near the route's end (the local goal
     /// inside the map) it is the local goal, or the reachable cell nearest to it.
-    fn choose_target(&mut self, perception: &Perception, state: [f64; 3], goal: [f64; 2], far: [f64; 2]) -> [f64; 2] {
-        let map = perception.costmap();
+    fn choose_target(&mut self, map: &Costmap, state: [f64; 3], goal: [f64; 2], far: [f64; 2]) -> [f64; 2] {
         let g = map.geometry();
         let blocked = AStarParams::default().blocked;
         let xy = [state[0], state[1]];
@@ -647,17 +819,29 @@ impl Planner for DdpenPlanner {
 
     fn plan(&mut self, request: &PlanRequest<'_>) -> Result<&Plan> {
         let t = Instant::now();
+        let [x, y, theta] = request.state;
+        if self.backup.is_none() {
+            self.watch([x, y], request.time);
+        }
+        if self.back_out(request, t)? {
+            return Ok(self.ddp.plan_mut());
+        }
         let mut infer = 0.0;
         if self.cycle % self.every == 0 || self.target.is_none() {
-            let target = self.choose_target(request.perception, request.state, request.goal, request.far_goal);
+            // The costmap with the keep-out discs of places the robot got stuck in.
+            let stamped = self.stamp_keepouts(request.perception.costmap(), request.time);
+            let map = stamped.as_ref().unwrap_or(request.perception.costmap());
+            let target = self.choose_target(map, request.state, request.goal, request.far_goal);
             self.target = Some(target);
-            self.source
-                .subgoals(request.perception, request.state, target, &mut self.subgoals)?;
+            let found = self.source.subgoals(map, request.state, target, &mut self.subgoals);
+            if stamped.is_some() {
+                self.scratch = stamped;
+            }
+            found?;
             self.ddp.set_subgoals(&self.subgoals)?;
             infer = t.elapsed().as_secs_f64();
         }
         self.cycle += 1;
-        let [x, y, theta] = request.state;
         let alpha = self
             .subgoals
             .first()
@@ -701,6 +885,10 @@ impl Planner for DdpenPlanner {
         plan.subgoal_seconds = infer;
         Ok(plan)
     }
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
 #[cfg(test)]

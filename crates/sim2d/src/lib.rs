@@ -32,6 +32,7 @@
 pub mod batch;
 pub mod ddpen;
 pub mod error;
+pub mod governor;
 pub mod log;
 pub mod perception;
 pub mod planner;

@@ -26,6 +26,13 @@
 //! | `v`, `w` bounds | `v_min`, `v_max`, `w_max` | [0, 1.5] m/s, 0.5 rad/s | paper §III; no reversing (a DDP allowed to reverse may settle into driving backwards) |
 //! | method | `full_ddp` | full DDP | second-order unicycle terms |
 //!
+//! The linear hinge of eq. (7) pulls a knot out of the margin with the constant force `w_o`,
+//! however deep it is; a plan that cuts through an obstacle's corner saves goal cost at every
+//! later knot (up to `(w_g + 3 w_s) N` in all), so warm-started plans can run the footprint into
+//! a corner and keep pushing against it. A stiff quadratic wall near the footprint,
+//! `w_b ReLU(d_b - dist(p))^2` with `d_b` = circumscribed radius + 0.15 m, is added to the running
+//! and terminal costs (`w_contact = 0` gives the paper's cost alone).
+//!
 //! [`AstarDdpPlanner`] is the same optimiser whose initial guess each cycle is a pure-pursuit
 //! rollout along the A* path from the robot to the local goal on the inflated costmap.
 //!
@@ -67,6 +74,10 @@ pub struct DdpParams {
     pub w_obstacle: f64,
     /// `d`, the distance below which the hinge acts (m).
     pub margin: f64,
+    /// `w_b`, the quadratic contact wall (not in the paper; 0 switches it off).
+    pub w_contact: f64,
+    /// `d_b`, the distance below which the contact wall acts (m).
+    pub contact_margin: f64,
     /// `eps` of the smooth distances (m).
     pub eps: f64,
     /// `w_s`, sub-goal distance (eq. 9; DDPEN only), per sub-goal.
@@ -102,6 +113,8 @@ impl Default for DdpParams {
             w_goal_terminal: 5.0,
             w_obstacle: 10.0,
             margin: 0.9,
+            w_contact: 1000.0,
+            contact_margin: 0.65,
             eps: 0.05,
             w_subgoal: 2.0,
             subgoal_every: 1,
@@ -135,6 +148,8 @@ impl DdpParams {
             ("w_goal_terminal", self.w_goal_terminal),
             ("w_obstacle", self.w_obstacle),
             ("margin", self.margin),
+            ("w_contact", self.w_contact),
+            ("contact_margin", self.contact_margin),
             ("w_subgoal", self.w_subgoal),
             ("w_max", self.w_max),
         ] {
@@ -330,6 +345,16 @@ impl DdpPlanner {
         &self.params
     }
 
+    /// Restricts the speed of the next plans to `[v_min, v_max]` of the parameters intersected
+    /// with `[lo, hi]` (`None`: the parameters' bounds).
+    pub(crate) fn restrict_speed(&mut self, range: Option<(f64, f64)>) {
+        let (lo, hi) = range.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+        let lo = lo.max(self.params.v_min).min(self.params.v_max);
+        let hi = hi.min(self.params.v_max).max(lo);
+        self.bounds.lower[0] = lo;
+        self.bounds.upper[0] = hi;
+    }
+
     /// The last plan, for wrappers that add to its timings.
     pub(crate) fn plan_mut(&mut self) -> &mut Plan {
         &mut self.plan
@@ -373,15 +398,26 @@ impl DdpPlanner {
             .with(p.w_control, Arc::new(ControlSquared::new(1.0)?))
             .with(p.w_goal, Arc::new(StateOnly(goal)))
             .with(p.w_obstacle, Arc::new(StateOnly(hinge.clone())));
+        let wall = (p.w_contact > 0.0)
+            .then(|| {
+                DistanceFieldHinge::<3>::squared(request.perception.field().clone(), p.contact_margin, [0, 1], 1.0)
+            })
+            .transpose()?;
+        if let Some(wall) = &wall {
+            running.push(p.w_contact, Arc::new(StateOnly(wall.clone())))?;
+        }
         for s in &self.subgoals {
             running.push(
                 p.w_subgoal,
                 Arc::new(StateOnly(SmoothDistance::<3>::sub_goal(*s, [0, 1], p.eps, 1.0)?)),
             )?;
         }
-        let terminal = TerminalSum::<3>::new()
+        let mut terminal = TerminalSum::<3>::new()
             .with(p.w_goal_terminal, Arc::new(goal))
             .with(p.w_obstacle, Arc::new(hinge));
+        if let Some(wall) = wall {
+            terminal.push(p.w_contact, Arc::new(wall))?;
+        }
         let x0 = Vector::<3>::new(request.state[0], request.state[1], request.state[2]);
         Ok(Problem::new(
             x0,

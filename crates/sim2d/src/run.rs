@@ -13,6 +13,7 @@
 use std::time::Instant;
 
 use crate::error::{check_positive, Error, Result};
+use crate::governor::{govern, GovernorParams};
 use crate::perception::{Perception, PerceptionParams};
 use crate::planner::{DdpParams, Plan, PlanRequest, PlannerKind, FAR_AHEAD};
 use crate::route::{dist, Route};
@@ -68,6 +69,8 @@ pub struct RunConfig {
     pub perception: PerceptionParams,
     /// The planner's problem.
     pub ddp: DdpParams,
+    /// The executor's speed governor ([`crate::governor`]).
+    pub governor: GovernorParams,
     /// The run ends as completed within this distance of the route's end (m).
     pub goal_tolerance: f64,
     /// The run fails when progress along the route grows by less than `stall_distance` in this
@@ -94,6 +97,7 @@ impl Default for RunConfig {
             lidar: LidarParams::default(),
             perception: PerceptionParams::default(),
             ddp: DdpParams::default(),
+            governor: GovernorParams::default(),
             goal_tolerance: 1.0,
             stall_time: 30.0,
             stall_distance: 0.5,
@@ -118,6 +122,7 @@ impl RunConfig {
         self.lidar.validate()?;
         self.perception.validate()?;
         self.ddp.validate()?;
+        self.governor.validate()?;
         if (self.ddp.dt - self.control_dt).abs() > 1e-12 {
             return Err(Error::invalid(
                 "ddp.dt",
@@ -434,12 +439,22 @@ pub fn run_scenario_with(
             cycles += 1;
             plan_now = Some(plan);
         }
-        // The executor: the plan's control for this step (the last one past the horizon).
-        let command = controls
+        // The executor: the plan's control for this step (the last one past the horizon), its
+        // speed capped by the governor.
+        let planned = controls
             .get(plan_index)
             .or(controls.last())
             .copied()
             .unwrap_or([0.0, 0.0]);
+        let command = govern(
+            &config.governor,
+            &config.robot,
+            perception.field(),
+            pose,
+            world.body_velocity()[0],
+            config.control_dt,
+            planned,
+        );
         plan_index += 1;
         trajectory.push([time, pose[0], pose[1], pose[2], command[0], command[1]]);
         goals.push(goal);

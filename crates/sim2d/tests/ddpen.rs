@@ -56,7 +56,7 @@ fn oracle_subgoals_lie_on_free_cells_along_an_astar_path() {
     let mut oracle = AstarSubgoals::default();
     let mut subgoals = Vec::new();
     oracle
-        .subgoals(&perception, [0.0, 0.0, 0.0], goal, &mut subgoals)
+        .subgoals(perception.costmap(), [0.0, 0.0, 0.0], goal, &mut subgoals)
         .unwrap();
     assert_eq!(subgoals.len(), ORACLE_STEPS.len());
     // The oracle's path is an optimal A* path: the same cost as a fresh search.
@@ -370,4 +370,99 @@ fn bad_input_names_the_field() {
     .unwrap_err()
     .to_string();
     assert!(e.starts_with("traps.path_clearance"), "{e}");
+}
+
+/// Sub-goals 2, 3 and 4 m ahead of the robot, recording the costmap cells at `probes` of every
+/// map it is given.
+struct Ahead {
+    probes: Vec<[f64; 2]>,
+    seen: Arc<std::sync::Mutex<Vec<Vec<u8>>>>,
+}
+
+impl SubgoalSource for Ahead {
+    fn name(&self) -> &str {
+        "ahead"
+    }
+    fn subgoals(
+        &mut self,
+        map: &Costmap,
+        state: [f64; 3],
+        _goal: [f64; 2],
+        out: &mut Vec<[f64; 2]>,
+    ) -> sim2d::Result<()> {
+        let g = map.geometry();
+        let cells = self
+            .probes
+            .iter()
+            .map(|&p| g.world_to_cell(p).map_or(0, |(x, y)| map.get(x, y)))
+            .collect();
+        self.seen.lock().unwrap().push(cells);
+        out.clear();
+        out.extend([2.0, 3.0, 4.0].map(|d| [state[0] + d, state[1]]));
+        Ok(())
+    }
+}
+
+#[test]
+fn a_stuck_ddpen_backs_out_along_its_trail_and_keeps_out_of_the_spot() {
+    use sim2d::ddpen::{BACKUP_DISTANCE, KEEPOUT_RADIUS, STUCK_TIME};
+    // Inside the costmap, which stays centred on the origin (no scans here).
+    let stuck_at = [3.0, 0.0];
+    let seen = Arc::new(std::sync::Mutex::new(Vec::new()));
+    // The spot, and just outside the keep-out disc round it.
+    let source = Ahead {
+        probes: vec![stuck_at, [stuck_at[0], KEEPOUT_RADIUS + 0.15]],
+        seen: seen.clone(),
+    };
+    let mut planner = DdpenPlanner::new("t", DdpParams::default(), Box::new(source)).unwrap();
+    let perception = Perception::new(PerceptionParams::default()).unwrap();
+    let request = |time: f64, x: f64| PlanRequest {
+        time,
+        state: [x, 0.0, 0.0],
+        goal: [x + 4.9, 0.0],
+        far_goal: [x + 15.0, 0.0],
+        perception: &perception,
+        steps_since_last: 1,
+    };
+    // Drive 7.5 m along x, then stand still (pushing against something the map does not show).
+    let mut time = 0.0;
+    for k in 0..=25 {
+        planner
+            .plan(&request(time, stuck_at[0] - 7.5 + 0.3 * k as f64))
+            .unwrap();
+        assert!(!planner.backing_out());
+        time += 0.1;
+    }
+    let mut started = None;
+    while time < 2.5 + STUCK_TIME + 1.0 {
+        let plan = planner.plan(&request(time, stuck_at[0])).unwrap().clone();
+        if planner.backing_out() {
+            started = Some((time, plan));
+            break;
+        }
+        time += 0.1;
+    }
+    let (t0, plan) = started.expect("no back-out");
+    assert!(t0 >= 2.5 + STUCK_TIME - 0.15, "backed out after {} s", t0 - 2.5);
+    // Sub-goals 1, 2, 3 m back along the trail (the straight line it came along), the plan backs.
+    assert_eq!(plan.guide.len(), 3);
+    for (i, s) in plan.guide.iter().enumerate() {
+        let back = stuck_at[0] - s[0];
+        assert!(
+            s[1].abs() < 1e-9 && back >= i as f64 + 1.0 - 1e-9 && back <= BACKUP_DISTANCE + 0.31,
+            "{s:?}"
+        );
+    }
+    assert!(plan.controls[0][0] < 0.0, "{:?}", plan.controls[0]);
+    assert!(plan.states[10][0] < stuck_at[0] - 0.3, "{:?}", plan.states[10]);
+    // Until then the source saw the spot free; after backing out it sees a lethal keep-out disc.
+    assert!(seen.lock().unwrap().iter().all(|c| c == &[0, 0]));
+    let mut x = stuck_at[0];
+    while planner.backing_out() {
+        x -= 0.05;
+        time += 0.1;
+        planner.plan(&request(time, x)).unwrap();
+        assert!(x > stuck_at[0] - BACKUP_DISTANCE - 1.0, "the back-out does not end");
+    }
+    assert_eq!(seen.lock().unwrap().last(), Some(&vec![LETHAL, 0]));
 }

@@ -11,6 +11,12 @@
 //!
 //! Like `ObstacleHinge`, only the gradient is added: the hinge's Hessian (the curvature of
 //! `-dist`) is not positive semidefinite, and DDP wants a PSD `l_xx` (a Gauss-Newton model).
+//!
+//! [`DistanceFieldHinge::squared`] is the quadratic hinge `w * ReLU(d - dist(p))^2`, a stiff
+//! wall for keeping a footprint out of contact: its pull grows with the penetration, so it can
+//! outweigh the cost-to-go a plan saves by cutting a corner (the linear hinge's constant pull
+//! `w` cannot, whatever the depth). It adds the Gauss-Newton Hessian `2 w grad dist grad dist^T`
+//! (PSD) with its gradient `-2 w ReLU(d - dist) grad dist`.
 
 use std::sync::Arc;
 
@@ -25,6 +31,7 @@ pub struct DistanceFieldHinge<const NX: usize> {
     margin: f64,
     indices: [usize; 2],
     weight: f64,
+    squared: bool,
 }
 
 impl<const NX: usize> DistanceFieldHinge<NX> {
@@ -59,6 +66,16 @@ impl<const NX: usize> DistanceFieldHinge<NX> {
             margin,
             indices,
             weight,
+            squared: false,
+        })
+    }
+
+    /// The quadratic hinge `weight * ReLU(margin - dist(p))^2` (see the module docs); the same
+    /// arguments and errors as [`new`](Self::new).
+    pub fn squared(field: Arc<DistanceField>, margin: f64, indices: [usize; 2], weight: f64) -> Result<Self> {
+        Ok(Self {
+            squared: true,
+            ..Self::new(field, margin, indices, weight)?
         })
     }
 
@@ -77,7 +94,8 @@ impl<const NX: usize> TerminalCost<NX> for DistanceFieldHinge<NX> {
     fn value(&self, x: &Vector<NX>) -> f64 {
         let [i, j] = self.indices;
         let (d, _) = self.field.sample([x[i], x[j]]);
-        self.weight * (self.margin - d).max(0.0)
+        let depth = (self.margin - d).max(0.0);
+        self.weight * if self.squared { depth * depth } else { depth }
     }
 
     #[inline]
@@ -88,9 +106,21 @@ impl<const NX: usize> TerminalCost<NX> for DistanceFieldHinge<NX> {
             return 0.0;
         }
         let c = w * self.weight;
+        let depth = self.margin - d;
+        if self.squared {
+            let s = 2.0 * c * depth;
+            der.lx[i] -= s * g[0];
+            der.lx[j] -= s * g[1];
+            let h = 2.0 * c;
+            der.lxx[(i, i)] += h * g[0] * g[0];
+            der.lxx[(i, j)] += h * g[0] * g[1];
+            der.lxx[(j, i)] += h * g[1] * g[0];
+            der.lxx[(j, j)] += h * g[1] * g[1];
+            return c * depth * depth;
+        }
         der.lx[i] -= c * g[0];
         der.lx[j] -= c * g[1];
-        c * (self.margin - d)
+        c * depth
     }
 }
 
@@ -162,13 +192,55 @@ mod tests {
     }
 
     #[test]
+    fn squared_hinge_is_the_square_with_gauss_newton_curvature() {
+        let (f, _) = setup();
+        let lin = DistanceFieldHinge::<3>::new(f.clone(), 0.8, [0, 1], 1.0).unwrap();
+        let sq = DistanceFieldHinge::<3>::squared(f, 0.8, [0, 1], 3.0).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let h = 1e-6;
+        let mut active = 0;
+        for _ in 0..200 {
+            let x = Vector::<3>::new(rng.random_range(-1.5..1.5), rng.random_range(-0.5..1.5), 0.2);
+            let depth = lin.value(&x);
+            assert!((sq.value(&x) - 3.0 * depth * depth).abs() < 1e-12);
+            let mut d = TerminalDerivatives::<3>::default();
+            let v = sq.add_derivatives(&x, 0.5, &mut d);
+            assert!((v - 0.5 * sq.value(&x)).abs() < 1e-12);
+            if depth == 0.0 {
+                assert_eq!(d.lx, Vector::<3>::zeros());
+                assert_eq!(d.lxx, ddp_core::Matrix::<3, 3>::zeros());
+                continue;
+            }
+            active += 1;
+            // Gradient: -2 w depth grad dist; Hessian: 2 w grad grad^T (PSD, rank one).
+            let (_, g) = sq.field().sample([x[0], x[1]]);
+            for k in 0..2 {
+                let mut e = Vector::<3>::zeros();
+                e[k] = h;
+                let fd = 0.5 * (sq.value(&(x + e)) - sq.value(&(x - e))) / (2.0 * h);
+                let gp = sq.field().geometry().world_to_grid([x[0], x[1]]);
+                let on_line = gp.iter().any(|c| ((c - 0.5) - (c - 0.5).round()).abs() < 1e-4);
+                assert!((fd - d.lx[k]).abs() < 1e-4 || on_line, "d/dx{k}: {} vs {fd}", d.lx[k]);
+                for j in 0..2 {
+                    assert!((d.lxx[(k, j)] - 2.0 * 0.5 * 3.0 * g[k] * g[j]).abs() < 1e-12);
+                }
+            }
+            assert!(d.lxx[(0, 0)] >= 0.0 && d.lxx[(1, 1)] >= 0.0);
+            assert_eq!(d.lx[2], 0.0);
+        }
+        assert!(active > 20, "{active}");
+    }
+
+    #[test]
     fn bad_input_names_the_field() {
         let (f, _) = setup();
         let e = DistanceFieldHinge::<3>::new(f.clone(), -1.0, [0, 1], 1.0).unwrap_err();
         assert!(e.to_string().starts_with("margin"), "{e}");
         let e = DistanceFieldHinge::<3>::new(f.clone(), 1.0, [0, 3], 1.0).unwrap_err();
         assert!(e.to_string().starts_with("indices[1]"), "{e}");
-        let e = DistanceFieldHinge::<3>::new(f, 1.0, [0, 1], f64::NAN).unwrap_err();
+        let e = DistanceFieldHinge::<3>::new(f.clone(), 1.0, [0, 1], f64::NAN).unwrap_err();
         assert!(e.to_string().starts_with("weight"), "{e}");
+        let e = DistanceFieldHinge::<3>::squared(f, f64::INFINITY, [0, 1], 1.0).unwrap_err();
+        assert!(e.to_string().starts_with("margin"), "{e}");
     }
 }

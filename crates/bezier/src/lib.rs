@@ -44,9 +44,9 @@
 
 pub mod bernstein;
 mod bezier;
+mod branch_tables;
 mod cubic;
 pub mod error;
-mod branch_tables;
 mod gauss_legendre;
 pub mod optimize;
 pub mod point;

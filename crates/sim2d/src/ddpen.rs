@@ -268,7 +268,7 @@ const BACKUP_PATIENCE: f64 = 2.0;
 const BACKUP_STEP: f64 = 0.1;
 
 /// Radius (m) of the keep-out disc at a place where a [`DdpenPlanner`] got stuck.
-pub const KEEPOUT_RADIUS: f64 = 0.5;
+pub const KEEPOUT_RADIUS: f64 = 1.0;
 
 /// How long (s) a keep-out disc stays.
 pub const KEEPOUT_TIME: f64 = 60.0;
@@ -281,6 +281,130 @@ pub trait SubgoalSource: Send {
     /// goal `goal`, seen on the inflated costmap `map`; written to `out` (cleared first). Empty
     /// when the source has none (the planner then runs as vanilla DDP).
     fn subgoals(&mut self, map: &Costmap, state: [f64; 3], goal: [f64; 2], out: &mut Vec<[f64; 2]>) -> Result<()>;
+
+    /// Whether the sub-goals come from a search of the costmap (`true` for the A* oracle), which
+    /// [`DdpenPlanner`] then takes as they are; otherwise it checks each new set against the one
+    /// in force (see [`SUBGOAL_TOLERANCE`]).
+    fn searches(&self) -> bool {
+        false
+    }
+}
+
+/// A new set of sub-goals from a source that does not search replaces the set in force unless
+/// its way to the goal is longer by more than this (m): the length of the polyline robot -> s_1
+/// -> s_2 -> s_3 plus the shortest way on the costmap from s_3 to the goal ([`CostToGo`]). The
+/// network's proposals can flip between two ways round an obstacle from one cycle to the next,
+/// or lead back into a pocket the robot is leaving; this keeps the better of the two in force.
+pub const SUBGOAL_TOLERANCE: f64 = 0.5;
+
+/// The shortest way from every cell to a target cell through cells cheaper than `blocked`
+/// (8-connected, steps of 5 and 7 fifths of a cell: at most 8 % longer than the Euclidean length
+/// in free space), by Dial's bucket queue. Buffers are allocated on the first call.
+#[derive(Debug, Clone, Default)]
+pub struct CostToGo {
+    cost: Vec<u32>,
+    buckets: [Vec<u32>; 8],
+    width: usize,
+    resolution: f64,
+}
+
+impl CostToGo {
+    /// Computes the field towards world point `target` (its cell, clamped onto the map) on `map`.
+    pub fn compute(&mut self, map: &Costmap, target: [f64; 2], blocked: u8) {
+        let g = map.geometry();
+        let (w, h) = (g.width(), g.height());
+        self.width = w;
+        self.resolution = g.resolution();
+        self.cost.clear();
+        self.cost.resize(w * h, u32::MAX);
+        for b in &mut self.buckets {
+            b.clear();
+        }
+        let (tx, ty) = g.world_to_cell_clamped(target);
+        let start = (ty * w + tx) as u32;
+        self.cost[start as usize] = 0;
+        self.buckets[0].push(start);
+        let mut d = 0u32;
+        let mut pending = 1usize;
+        while pending > 0 {
+            let slot = (d % 8) as usize;
+            while let Some(i) = self.buckets[slot].pop() {
+                pending -= 1;
+                let i = i as usize;
+                if self.cost[i] != d {
+                    continue;
+                }
+                let (x, y) = ((i % w) as i64, (i / w) as i64);
+                for (dx, dy, step) in [
+                    (1i64, 0i64, 5u32),
+                    (-1, 0, 5),
+                    (0, 1, 5),
+                    (0, -1, 5),
+                    (1, 1, 7),
+                    (1, -1, 7),
+                    (-1, 1, 7),
+                    (-1, -1, 7),
+                ] {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    let c = d + step;
+                    if c < self.cost[j] && map.get(nx as usize, ny as usize) < blocked {
+                        self.cost[j] = c;
+                        self.buckets[(c % 8) as usize].push(j as u32);
+                        pending += 1;
+                    }
+                }
+            }
+            d += 1;
+        }
+    }
+
+    /// The shortest way (m) from world point `p` to the target: from the best reached cell
+    /// within 3 cells of `p`'s cell plus the straight step there (a sub-goal may sit on the
+    /// inflated rim of an obstacle); infinite when none is reached or `p` is off the map.
+    pub fn metres(&self, map: &Costmap, p: [f64; 2]) -> f64 {
+        let Some((cx, cy)) = map.geometry().world_to_cell(p) else {
+            return f64::INFINITY;
+        };
+        if self.cost.len() != map.width() * map.height() || self.width != map.width() {
+            return f64::INFINITY;
+        }
+        let mut best = f64::INFINITY;
+        let (w, h) = (map.width() as i64, map.height() as i64);
+        for dy in -3i64..=3 {
+            for dx in -3i64..=3 {
+                let (x, y) = (cx as i64 + dx, cy as i64 + dy);
+                if x < 0 || y < 0 || x >= w || y >= h {
+                    continue;
+                }
+                let c = self.cost[(y * w + x) as usize];
+                if c == u32::MAX {
+                    continue;
+                }
+                let v = (0.2 * c as f64 + ((dx * dx + dy * dy) as f64).sqrt()) * self.resolution;
+                best = best.min(v);
+            }
+        }
+        best
+    }
+
+    /// The length (m) of the way `from` -> `subgoals[0]` -> ... -> last sub-goal, plus
+    /// [`metres`](Self::metres) from the last sub-goal; infinite for no sub-goals.
+    pub fn way_through(&self, map: &Costmap, from: [f64; 2], subgoals: &[[f64; 2]]) -> f64 {
+        let Some(&last) = subgoals.last() else {
+            return f64::INFINITY;
+        };
+        let mut length = 0.0;
+        let mut at = from;
+        for &s in subgoals {
+            length += dist(at, s);
+            at = s;
+        }
+        length + self.metres(map, last)
+    }
 }
 
 /// The A* oracle: sub-goals at path steps [`ORACLE_STEPS`] (clamped to the path's end on short
@@ -444,6 +568,10 @@ impl SubgoalSource for AstarSubgoals {
         "astar"
     }
 
+    fn searches(&self) -> bool {
+        true
+    }
+
     fn subgoals(&mut self, map: &Costmap, state: [f64; 3], goal: [f64; 2], out: &mut Vec<[f64; 2]>) -> Result<()> {
         out.clear();
         // The sub-goal cells' buffer is kept between cycles (no allocation per plan).
@@ -581,6 +709,9 @@ pub struct DdpenPlanner {
     keepouts: Vec<([f64; 2], f64)>,
     /// The costmap with the keep-out discs (reused).
     scratch: Option<Costmap>,
+    /// The source's newest proposal, before the check against the set in force.
+    candidate: Vec<[f64; 2]>,
+    togo: CostToGo,
 }
 
 impl DdpenPlanner {
@@ -611,6 +742,8 @@ impl DdpenPlanner {
             backup_best: (f64::INFINITY, 0.0),
             keepouts: Vec::new(),
             scratch: None,
+            candidate: Vec::new(),
+            togo: CostToGo::default(),
         })
     }
 
@@ -642,6 +775,20 @@ impl DdpenPlanner {
             }
         }
         Some(out)
+    }
+
+    /// Makes the source's proposal (`candidate`) the set in force unless the set in force leads
+    /// to `target` by a way shorter by more than [`SUBGOAL_TOLERANCE`] (see there).
+    fn accept_or_keep(&mut self, map: &Costmap, xy: [f64; 2], target: [f64; 2]) {
+        if !self.source.searches() && !self.subgoals.is_empty() && !self.candidate.is_empty() {
+            self.togo.compute(map, target, AStarParams::default().blocked);
+            let kept = self.togo.way_through(map, xy, &self.subgoals);
+            let new = self.togo.way_through(map, xy, &self.candidate);
+            if kept.is_finite() && !(new <= kept + SUBGOAL_TOLERANCE) {
+                return;
+            }
+        }
+        std::mem::swap(&mut self.subgoals, &mut self.candidate);
     }
 
     /// Whether a back-out is in progress (see the module docs).
@@ -716,8 +863,10 @@ impl DdpenPlanner {
         if request.time >= *deadline || left <= STUCK_RADIUS || stuck {
             self.backup = None;
             self.ddp.restrict_speed(None);
-            // The trail behind is where the robot has just been: start afresh.
+            // The trail behind is where the robot has just been: start afresh, and take the
+            // source's next proposal whatever it is (the back-out's sub-goals are no yardstick).
             self.trail.clear();
+            self.subgoals.clear();
             return Ok(false);
         }
         self.subgoals.clear();
@@ -833,7 +982,10 @@ impl Planner for DdpenPlanner {
             let map = stamped.as_ref().unwrap_or(request.perception.costmap());
             let target = self.choose_target(map, request.state, request.goal, request.far_goal);
             self.target = Some(target);
-            let found = self.source.subgoals(map, request.state, target, &mut self.subgoals);
+            let found = self.source.subgoals(map, request.state, target, &mut self.candidate);
+            if found.is_ok() {
+                self.accept_or_keep(map, [x, y], target);
+            }
             if stamped.is_some() {
                 self.scratch = stamped;
             }

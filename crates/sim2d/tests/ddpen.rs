@@ -466,3 +466,84 @@ fn a_stuck_ddpen_backs_out_along_its_trail_and_keeps_out_of_the_spot() {
     }
     assert_eq!(seen.lock().unwrap().last(), Some(&vec![LETHAL, 0]));
 }
+
+#[test]
+fn cost_to_go_is_the_shortest_way_round_obstacles() {
+    use sim2d::ddpen::CostToGo;
+    let g = GridGeometry::centered([0.0, 0.0], 100, 100, 0.05).unwrap();
+    let mut map = Costmap::new(g);
+    let target = [2.0, 0.0];
+    let mut togo = CostToGo::default();
+    togo.compute(&map, target, INSCRIBED);
+    // Free space: the octile length, between the straight line and 8 % over it (plus a cell).
+    for p in [[-2.0, 0.0], [-1.5, 1.5], [0.3, -2.2], [2.0, 2.0]] {
+        let straight = dist(p, target);
+        let m = togo.metres(&map, p);
+        assert!(
+            m >= straight - 0.08 && m <= 1.08 * straight + 0.08,
+            "{p:?}: {m} vs {straight}"
+        );
+    }
+    assert_eq!(togo.metres(&map, [9.0, 0.0]), f64::INFINITY);
+    // A wall of cells across x = 0 from y = -2.5 to 1.5: from (-1, 0) the way passes its end.
+    for iy in 0..80 {
+        map.set(50, iy, LETHAL);
+    }
+    togo.compute(&map, target, INSCRIBED);
+    let p = [-1.0, 0.0];
+    let round = dist(p, [0.0, 1.6]) + dist([0.0, 1.6], target);
+    let m = togo.metres(&map, p);
+    assert!(m >= round - 0.1 && m <= 1.08 * round + 0.1, "{m} vs {round}");
+    // The way through sub-goals: the polyline plus the way on from the last.
+    let w = togo.way_through(&map, [0.5, 0.0], &[[1.0, 0.0], [1.5, 0.0]]);
+    assert!((w - (1.0 + togo.metres(&map, [1.5, 0.0]))).abs() < 1e-12, "{w}");
+    assert_eq!(togo.way_through(&map, p, &[]), f64::INFINITY);
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+/// Proposes, in turn, sub-goals ahead towards the goal and sub-goals straight behind.
+struct Flipping(usize);
+
+impl SubgoalSource for Flipping {
+    fn name(&self) -> &str {
+        "flipping"
+    }
+    fn subgoals(
+        &mut self,
+        _map: &Costmap,
+        state: [f64; 3],
+        _goal: [f64; 2],
+        out: &mut Vec<[f64; 2]>,
+    ) -> sim2d::Result<()> {
+        self.0 += 1;
+        let sign = if self.0 % 2 == 1 { -1.0 } else { 1.0 };
+        out.clear();
+        out.extend([1.0, 2.0, 3.0].map(|d| [state[0] + sign * d, state[1]]));
+        Ok(())
+    }
+}
+
+#[test]
+fn ddpen_keeps_the_better_of_flipping_subgoal_proposals() {
+    let perception = Perception::new(PerceptionParams::default()).unwrap();
+    let mut planner = DdpenPlanner::new("t", DdpParams::default(), Box::new(Flipping(0))).unwrap();
+    let request = PlanRequest {
+        time: 0.0,
+        state: [0.0, 0.0, 0.0],
+        goal: [4.9, 0.0],
+        far_goal: [15.0, 0.0],
+        perception: &perception,
+        steps_since_last: 1,
+    };
+    // First proposal (behind): nothing in force, taken. Second (ahead): shorter, taken. After
+    // that the proposals behind are 6 m longer and rejected, those ahead taken.
+    let mut in_force = Vec::new();
+    for _ in 0..6 {
+        planner.plan(&request).unwrap();
+        in_force.push(planner.subgoals()[0][0]);
+    }
+    assert_eq!(in_force, vec![-1.0, 1.0, 1.0, 1.0, 1.0, 1.0]);
+}

@@ -7,8 +7,8 @@
 //! cargo run --release -p sim2d --example ddpen_debug -- trap:l:6 ddpen 0.5 b  # w_subgoal 0.5, backward
 //! ```
 //!
-//! `DDPEN_RUN=K` runs a scenario with the noise seed of run `K` of `ddpen-table --seed 1` (default:
-//! the run config's seed). Every contact onset is printed with the plan's next knots and their
+//! `DDPEN_RUN=K` runs a scenario with the noise seed of run `K` of `ddpen-table --seed B`
+//! (`DDPEN_BASE=B`, default 1; without `DDPEN_RUN`, the run config's seed). Every contact onset is printed with the plan's next knots and their
 //! distance-field clearance. `DDPEN_SNAPSHOTS=DIR` also writes a PNG of the costmap, robot, local goal, sub-goals and plan
 //! every 2 s of simulated time; `DDPEN_MODEL=FILE` runs `ddpen` with other weights.
 
@@ -155,7 +155,12 @@ fn main() -> sim2d::Result<()> {
             .to_string_lossy()
             .parse()
             .map_err(|_| sim2d::Error::invalid("DDPEN_RUN", "not a run index"))?;
-        config.seed = sim2d::batch::run_seed(1, k, config.direction);
+        // DDPEN_BASE=<seed>: the table's --seed (default 1).
+        let base = std::env::var("DDPEN_BASE")
+            .ok()
+            .and_then(|b| b.parse().ok())
+            .unwrap_or(1);
+        config.seed = sim2d::batch::run_seed(base, k, config.direction);
     }
     // DDPEN_SNAPSHOTS=<dir>: a costmap PNG every 2 s of simulated time.
     let dir = std::env::var_os("DDPEN_SNAPSHOTS").map(std::path::PathBuf::from);

@@ -252,6 +252,9 @@ pub const STUCK_TIME: f64 = 6.0;
 /// How far (m) a stuck [`DdpenPlanner`] backs out along its trail.
 pub const BACKUP_DISTANCE: f64 = 3.0;
 
+/// A back-out starts where the trail last came within this distance (m) of the stuck robot.
+const ENTRY_RADIUS: f64 = 1.5;
+
 /// Spacing (m) of the trail's points.
 const TRAIL_SPACING: f64 = 0.25;
 
@@ -813,16 +816,16 @@ impl DdpenPlanner {
             return false;
         }
         self.anchor = (xy, time);
-        // Back along the trail from where the robot last was outside twice the stuck radius
-        // (its dithering in between skipped), for BACKUP_DISTANCE.
+        // Back along the trail from where the robot last came within ENTRY_RADIUS of here: its
+        // dithering since (which may have gone deeper into the dead end) is skipped.
+        let entry = self
+            .trail
+            .iter()
+            .rposition(|&p| dist(p, xy) > ENTRY_RADIUS)
+            .unwrap_or(0);
         let mut path = vec![xy];
         let mut length = 0.0;
-        let mut outside = false;
-        for &p in self.trail.iter().rev() {
-            outside |= dist(p, xy) > 2.0 * STUCK_RADIUS;
-            if !outside {
-                continue;
-            }
+        for &p in self.trail.iter().take(entry + 1).rev() {
             length += dist(*path.last().expect("not empty"), p);
             path.push(p);
             if length >= BACKUP_DISTANCE {

@@ -740,13 +740,11 @@ pub(crate) fn branch_order(lead: f64, roots: &[Complex], a: f64, b: f64, tol: f6
     let c = 0.5 * (a + b);
     let inv_l = 1.0 / l;
     let scale = BRANCH_SAFETY * l * l * lead;
-    let row = |z: &Complex| {
-        let t = if z.re > a && z.re < b { &BRANCH_IN } else { &BRANCH_OUT };
-        &t[branch_bin(z.im.abs() * inv_l)]
-    };
-    let t0 = row(&roots[0]);
-    let (amp0, amp1, t1) = if roots.len() < 2 {
-        (scale, 0.0, t0)
+    // Index into BRANCH_ALL: the out table's rows, then the in table's.
+    let row = |z: &Complex| ((z.re > a && z.re < b) as usize) * BRANCH_ROWS + branch_bin(z.im.abs() * inv_l);
+    let i0 = row(&roots[0]);
+    let (amp0, amp1, i1) = if roots.len() < 2 {
+        (scale, 0.0, i0)
     } else {
         // The amplitude of root j is the other factor |z - r_o| near r_j and on the piece, at most
         // |c - r_o| + max(h, |r_j - c|) (|c - r| <= |Re| + |Im|): a far root sees the other
@@ -755,13 +753,79 @@ pub(crate) fn branch_order(lead: f64, roots: &[Complex], a: f64, b: f64, tol: f6
         let (d0, d1) = ((c - r0.re).abs() + r0.im.abs(), (c - r1.re).abs() + r1.im.abs());
         (scale * (d1 + fmax(d0, h)), scale * (d0 + fmax(d1, h)), row(&r1))
     };
+    let (t0, t1) = (&BRANCH_ALL[i0], &BRANCH_ALL[i1]);
     let est = |i: usize| amp0 * t0[i] + amp1 * t1[i];
+    // Start the search at a lower bound of the answer read from the exponents: each term alone
+    // must fit (see [`BRANCH_START`]).
+    let e_tol = exponent(tol);
+    let start = |r: usize, amp: f64| {
+        let k = (e_tol - exponent(amp)).clamp(START_KMIN, START_KMAX);
+        BRANCH_START[r][(k - START_KMIN) as usize] as usize
+    };
+    let (s0, s1) = (start(i0, amp0), start(i1, amp1));
+    let mut i = if s0 > s1 { s0 } else { s1 };
+    i = if i < max { i } else { max };
     // `!(x <= tol)` also rejects NaN.
-    if !(est(max) <= tol) {
+    while i < max && !(est(i) <= tol) {
+        i += 1;
+    }
+    if !(est(i) <= tol) {
         return None;
     }
-    Some((0..max).find(|&i| est(i) <= tol).unwrap_or(max))
+    Some(i)
 }
+
+/// The binary exponent of `|x|` (`-1023` for zero and subnormals, `1024` for infinities and NaN).
+#[inline(always)]
+fn exponent(x: f64) -> i64 {
+    ((x.to_bits() >> 52) & 0x7ff) as i64 - 1023
+}
+
+/// Rows of [`BRANCH_OUT`] (and of [`BRANCH_IN`]).
+const BRANCH_ROWS: usize = BRANCH_OUT.len();
+
+/// [`BRANCH_OUT`]'s rows, then [`BRANCH_IN`]'s.
+static BRANCH_ALL: [[f64; 11]; 2 * BRANCH_ROWS] = {
+    let mut t = [[0.0; 11]; 2 * BRANCH_ROWS];
+    let mut r = 0;
+    while r < BRANCH_ROWS {
+        t[r] = BRANCH_OUT[r];
+        t[BRANCH_ROWS + r] = BRANCH_IN[r];
+        r += 1;
+    }
+    t
+};
+
+/// Range of `k = e(tol) - e(amp)` in [`BRANCH_START`] (clamped to it): the finite tabulated
+/// errors lie between `2^-55` and `2^-5`.
+const START_KMIN: i64 = -58;
+const START_KMAX: i64 = -4;
+const START_NK: usize = (START_KMAX - START_KMIN + 1) as usize;
+
+/// `[row][k - START_KMIN]` for a row of [`BRANCH_ALL`]: the first order whose error in the row is
+/// below `2^(k + 1)`. When the exponents of `tol` and `amp` differ by `k`, `tol / amp < 2^(k + 1)`,
+/// so no earlier order has `amp t[i] <= tol`: a lower bound of [`branch_order`]'s answer. It holds
+/// for `k` clamped to the range too: below it the bound only weakens, and above it every finite
+/// entry is below `2^(START_KMAX + 1)` (the entry is 0; rows of infinities read `11`).
+static BRANCH_START: [[u8; START_NK]; 2 * BRANCH_ROWS] = {
+    let mut out = [[0u8; START_NK]; 2 * BRANCH_ROWS];
+    let mut r = 0;
+    while r < 2 * BRANCH_ROWS {
+        let mut c = 0;
+        while c < START_NK {
+            // 2^(k + 1) for k = START_KMIN + c
+            let limit = f64::from_bits(((START_KMIN + c as i64 + 1 + 1023) as u64) << 52);
+            let mut i = 0;
+            while i < 11 && !(BRANCH_ALL[r][i] < limit) {
+                i += 1;
+            }
+            out[r][c] = i as u8;
+            c += 1;
+        }
+        r += 1;
+    }
+    out
+};
 
 /// The a-priori recursion of [`apriori_rec`], specialised to a quadratic hodograph. Returns the
 /// length and a bound of its error; the right half of a split inherits what the left half's
@@ -1228,6 +1292,65 @@ mod tests {
             }
         }
         assert!(checked > 20_000);
+    }
+
+    /// The search in [`branch_order`] starts at the lower bound read from [`BRANCH_START`]; it
+    /// finds the same rule as a plain search from the smallest order, over random roots, pieces,
+    /// accuracies (`1e-16` to `10`, and zero), caps and sizes, including roots on the real axis,
+    /// far away, a zero leading coefficient and non-finite input.
+    #[test]
+    fn branch_order_start_table_matches_plain_search() {
+        let plain = |lead: f64, roots: &[Complex], a: f64, b: f64, tol: f64, max: usize| {
+            let (l, h, c) = (b - a, 0.5 * (b - a), 0.5 * (a + b));
+            let scale = BRANCH_SAFETY * l * l * lead;
+            let row = |z: &Complex| {
+                let t = if z.re > a && z.re < b { &BRANCH_IN } else { &BRANCH_OUT };
+                t[branch_bin(z.im.abs() / l)]
+            };
+            let (amp0, amp1, t0, t1) = if roots.len() < 2 {
+                (scale, 0.0, row(&roots[0]), row(&roots[0]))
+            } else {
+                let (r0, r1) = (roots[0], roots[1]);
+                let (d0, d1) = ((c - r0.re).abs() + r0.im.abs(), (c - r1.re).abs() + r1.im.abs());
+                (scale * (d1 + d0.max(h)), scale * (d0 + d1.max(h)), row(&r0), row(&r1))
+            };
+            (0..=max).find(|&i| amp0 * t0[i] + amp1 * t1[i] <= tol)
+        };
+        let mut state: u64 = 0x2545_F491_4F6C_DD1D;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut found = [0usize; 12];
+        for k in 0..200_000 {
+            let mut z = || {
+                let im = [0.0, 1e-12, 1e-6, 1e-3, 0.05, 0.3, 2.0][(7.0 * next()) as usize] * (2.0 * next() - 1.0);
+                Complex::new(4.0 * next() - 1.5, im)
+            };
+            let roots = [z(), z()];
+            let n = 1 + (k % 7 != 0) as usize;
+            let a = next() - 0.2;
+            let b = a + 10f64.powf(-4.0 * next());
+            let tol = match k % 101 {
+                0 => 0.0,
+                _ => 10f64.powf(1.0 - 17.0 * next()),
+            };
+            let lead = match k % 97 {
+                0 => 0.0,
+                1 => f64::NAN,
+                2 => f64::INFINITY,
+                _ => 10f64.powf(6.0 * next() - 3.0),
+            };
+            let max = [WHOLE_MAX, ORDERS.len() - 1, 0, 3][k % 4];
+            let got = branch_order(lead, &roots[..n], a, b, tol, max);
+            let want = plain(lead, &roots[..n], a, b, tol, max);
+            assert_eq!(got, want, "{lead} {roots:?} n {n} [{a}, {b}] tol {tol:e} max {max}");
+            found[got.map_or(11, |i| i)] += 1;
+        }
+        // Every order is reached, and some cases have no rule.
+        assert!(found.iter().all(|&f| f > 0), "{found:?}");
     }
 
     /// Reference length for the adversarial tests, independent of the rule choice: adaptive

@@ -380,30 +380,42 @@ impl LocalHodograph {
     /// the square root of the pair `+-x`). An odd node out goes alone.
     #[inline(always)]
     fn gauss_fixed<const K: usize>(&self, rule: &Soa<K>) -> f64 {
+        // Plain loops over two-element arrays, no closures or `array::from_fn` (whose closure
+        // was not always inlined): each line is one packed operation on two nodes.
         let (a, b, c) = (self.a, self.b, self.c);
-        // w (|B'(x)| + |B'(-x)|)
-        let node = |x: f64, w: f64| {
-            let x2 = x * x;
-            let (dx, dy) = (c.x + a.x * x2, c.y + a.y * x2);
-            let (ex, ey) = (b.x * x, b.y * x);
-            let p = ((dx + ex) * (dx + ex) + (dy + ey) * (dy + ey)).sqrt();
-            let n = ((dx - ex) * (dx - ex) + (dy - ey) * (dy - ey)).sqrt();
-            w * (p + n)
-        };
         let mut acc = [0.0; 2];
         let mut i = 0;
         while i + 2 <= K {
-            let v: [f64; 2] = core::array::from_fn(|j| node(rule.x[i + j], rule.w[i + j]));
+            let mut v = [0.0; 2];
+            for j in 0..2 {
+                let (x, w) = (rule.x[i + j], rule.w[i + j]);
+                let x2 = x * x;
+                let (dx, dy) = (c.x + a.x * x2, c.y + a.y * x2);
+                let (ex, ey) = (b.x * x, b.y * x);
+                let p = ((dx + ex) * (dx + ex) + (dy + ey) * (dy + ey)).sqrt();
+                let n = ((dx - ex) * (dx - ex) + (dy - ey) * (dy - ey)).sqrt();
+                v[j] = w * (p + n);
+            }
             acc[0] += v[0];
             acc[1] += v[1];
             i += 2;
         }
-        let odd = if K % 2 == 1 {
-            node(rule.x[K - 1], rule.w[K - 1])
-        } else {
-            0.0
-        };
-        (acc[0] + acc[1]) + odd
+        if K % 2 == 1 {
+            acc[0] += self.node(rule.x[K - 1], rule.w[K - 1]);
+        }
+        acc[0] + acc[1]
+    }
+
+    /// `w (|B'(x)| + |B'(-x)|)`.
+    #[inline(always)]
+    fn node(&self, x: f64, w: f64) -> f64 {
+        let (a, b, c) = (self.a, self.b, self.c);
+        let x2 = x * x;
+        let (dx, dy) = (c.x + a.x * x2, c.y + a.y * x2);
+        let (ex, ey) = (b.x * x, b.y * x);
+        let p = ((dx + ex) * (dx + ex) + (dy + ey) * (dy + ey)).sqrt();
+        let n = ((dx - ex) * (dx - ex) + (dy - ey) * (dy - ey)).sqrt();
+        w * (p + n)
     }
 
     /// [`gauss_fixed`](Self::gauss_fixed) with the rule `RULES[i]` (`ORDERS[i]` points). Always

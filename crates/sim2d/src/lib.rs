@@ -30,6 +30,7 @@
 //! ```
 
 pub mod batch;
+pub mod cli;
 pub mod ddpen;
 pub mod error;
 pub mod governor;

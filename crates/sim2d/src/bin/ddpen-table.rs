@@ -39,15 +39,6 @@ struct Args {
     /// Planner (repeatable): ddp, ddp-astar, ddpen, ddpen-oracle.
     #[arg(long = "planner", default_values = ["ddp", "ddpen"])]
     planners: Vec<String>,
-    /// Sub-goal model weights for `ddpen` [default: the shipped model].
-    #[arg(long)]
-    model: Option<PathBuf>,
-    /// Weight `w_s` of each sub-goal's distance (eq. 9).
-    #[arg(long)]
-    w_subgoal: Option<f64>,
-    /// New sub-goals every this many planning cycles.
-    #[arg(long)]
-    subgoal_every: Option<usize>,
     /// Runs per set, planner and direction.
     #[arg(long, default_value_t = 5)]
     runs: usize,
@@ -69,9 +60,9 @@ struct Args {
     /// Seconds between costmap messages in the MCAP logs.
     #[arg(long, default_value_t = 2.0)]
     costmap_period: f64,
-    /// Planner horizon N (knots of 0.1 s).
-    #[arg(long)]
-    horizon: Option<usize>,
+    /// Planner and executor options.
+    #[command(flatten)]
+    planner: sim2d::cli::PlannerArgs,
     /// Worker threads [default: one per core].
     #[arg(long)]
     threads: Option<usize>,
@@ -105,18 +96,7 @@ fn run(args: Args) -> sim2d::Result<()> {
         .map(|s| Scenario::from_file(args.scenarios.join(format!("{s}.toml"))).map(Arc::new))
         .collect::<sim2d::Result<Vec<_>>>()?;
     let mut base = RunConfig::default();
-    if let Some(n) = args.horizon {
-        base.ddp.horizon = n;
-    }
-    if let Some(w) = args.w_subgoal {
-        base.ddp.w_subgoal = w;
-    }
-    if let Some(k) = args.subgoal_every {
-        base.ddp.subgoal_every = k;
-    }
-    if let Some(m) = &args.model {
-        base.ddp.subgoal_model = Some(sim2d::ddpen::intern_path(m));
-    }
+    args.planner.apply(&mut base);
     base.validate()?;
     if planners.contains(&PlannerKind::Ddpen) {
         // Fail early, naming the model, rather than in every run.

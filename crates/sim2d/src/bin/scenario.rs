@@ -60,12 +60,9 @@ struct Args {
     /// Seconds between costmap messages in the MCAP logs.
     #[arg(long, default_value_t = 1.0)]
     costmap_period: f64,
-    /// Planner horizon N (knots of 0.1 s).
-    #[arg(long)]
-    horizon: Option<usize>,
-    /// Sub-goal model weights for `ddpen` [default: the shipped model].
-    #[arg(long)]
-    model: Option<PathBuf>,
+    /// Planner and executor options.
+    #[command(flatten)]
+    planner: sim2d::cli::PlannerArgs,
     /// Worker threads [default: one per core].
     #[arg(long)]
     threads: Option<usize>,
@@ -100,12 +97,7 @@ fn run(args: Args) -> sim2d::Result<()> {
         Directions::Both => &[Direction::Forward, Direction::Backward],
     };
     let mut base = RunConfig::default();
-    if let Some(n) = args.horizon {
-        base.ddp.horizon = n;
-    }
-    if let Some(m) = &args.model {
-        base.ddp.subgoal_model = Some(sim2d::ddpen::intern_path(m));
-    }
+    args.planner.apply(&mut base);
     base.validate()?;
     let mut jobs = Vec::new();
     for &planner in &planners {

@@ -13,7 +13,6 @@ use std::sync::Arc;
 use clap::Parser;
 use serde_json::json;
 use sim2d::batch::{run_batch, run_seed, write_figures, write_json, BatchOptions, Job};
-use sim2d::ddpen::intern_path;
 use sim2d::run::Stats;
 use sim2d::traps::{trap_map, TrapKind, TrapParams};
 use sim2d::{Direction, PlannerKind, RunConfig, RunResult};
@@ -44,15 +43,6 @@ struct Args {
     /// A run is stopped after this much simulated time (s).
     #[arg(long, default_value_t = 120.0)]
     max_time: f64,
-    /// Sub-goal model weights for `ddpen` [default: the shipped model].
-    #[arg(long)]
-    model: Option<PathBuf>,
-    /// Weight `w_s` of each sub-goal's distance (eq. 9).
-    #[arg(long)]
-    w_subgoal: Option<f64>,
-    /// New sub-goals every this many planning cycles.
-    #[arg(long)]
-    subgoal_every: Option<usize>,
     /// Write the summary and every run's figures as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -62,6 +52,9 @@ struct Args {
     /// Draw a PNG of the first this many maps of each type, with every planner's path.
     #[arg(long, default_value_t = 2)]
     png: usize,
+    /// Planner and executor options.
+    #[command(flatten)]
+    planner: sim2d::cli::PlannerArgs,
     /// Worker threads [default: one per core].
     #[arg(long)]
     threads: Option<usize>,
@@ -151,15 +144,7 @@ fn run(args: Args) -> sim2d::Result<()> {
         keep_plan_every: 0,
         ..RunConfig::default()
     };
-    if let Some(w) = args.w_subgoal {
-        base.ddp.w_subgoal = w;
-    }
-    if let Some(k) = args.subgoal_every {
-        base.ddp.subgoal_every = k;
-    }
-    if let Some(m) = &args.model {
-        base.ddp.subgoal_model = Some(intern_path(m));
-    }
+    args.planner.apply(&mut base);
     base.validate()?;
     if planners.contains(&PlannerKind::Ddpen) {
         // Fail early, naming the model, rather than in every run.

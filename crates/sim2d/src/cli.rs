@@ -1,0 +1,82 @@
+//! Command-line options shared by the `scenario`, `ddpen-table` and `trap-bench` binaries: the
+//! planner's problem and the executor, as one `clap` group (`#[command(flatten)]`).
+
+use std::path::PathBuf;
+
+use crate::ddpen::intern_path;
+use crate::run::RunConfig;
+
+/// Planner and executor options (each left out keeps [`RunConfig::default`]'s value).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct PlannerArgs {
+    /// Planner horizon N (knots of 0.1 s).
+    #[arg(long)]
+    pub horizon: Option<usize>,
+    /// Sub-goal model weights for `ddpen` [default: the shipped model].
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Weight `w_s` of each sub-goal's distance (eq. 9).
+    #[arg(long)]
+    pub w_subgoal: Option<f64>,
+    /// New sub-goals every this many planning cycles.
+    #[arg(long)]
+    pub subgoal_every: Option<usize>,
+    /// Weight of the quadratic contact wall added to eq. (7) (0: the paper's cost alone).
+    #[arg(long)]
+    pub w_contact: Option<f64>,
+    /// Send the plans' speeds as they are, without the braking-distance cap (the paper's
+    /// executor; see `sim2d::governor`).
+    #[arg(long)]
+    pub no_governor: bool,
+}
+
+impl PlannerArgs {
+    /// Writes the given options into `config` (validate it afterwards).
+    pub fn apply(&self, config: &mut RunConfig) {
+        if let Some(n) = self.horizon {
+            config.ddp.horizon = n;
+        }
+        if let Some(m) = &self.model {
+            config.ddp.subgoal_model = Some(intern_path(m));
+        }
+        if let Some(w) = self.w_subgoal {
+            config.ddp.w_subgoal = w;
+        }
+        if let Some(k) = self.subgoal_every {
+            config.ddp.subgoal_every = k;
+        }
+        if let Some(w) = self.w_contact {
+            config.ddp.w_contact = w;
+        }
+        if self.no_governor {
+            config.governor.enabled = false;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        planner: PlannerArgs,
+    }
+
+    #[test]
+    fn options_reach_the_config_and_bad_values_are_named() {
+        let cli = Cli::try_parse_from(["x", "--w-contact", "0", "--no-governor", "--horizon", "30"]).unwrap();
+        let mut c = RunConfig::default();
+        cli.planner.apply(&mut c);
+        assert_eq!((c.ddp.w_contact, c.governor.enabled, c.ddp.horizon), (0.0, false, 30));
+        assert_eq!(c.ddp.w_subgoal, RunConfig::default().ddp.w_subgoal);
+        let cli = Cli::try_parse_from(["x", "--w-contact=-1"]).unwrap();
+        let mut c = RunConfig::default();
+        cli.planner.apply(&mut c);
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.starts_with("ddp.w_contact"), "{e}");
+        assert!(Cli::try_parse_from(["x", "--horizon", "many"]).is_err());
+    }
+}

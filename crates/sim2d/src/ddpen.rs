@@ -51,13 +51,13 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;
 
-use subgoal_infer::grid::{path_cost, AStar, AStarParams, Costmap, GridGeometry};
+use subgoal_infer::grid::{path_cost, AStar, AStarParams, Costmap, GridGeometry, LETHAL};
 use subgoal_infer::SubgoalModel;
 
 use crate::error::{Error, Result};
 use crate::planner::{pursuit_guess, DdpParams, DdpPlanner, Plan, PlanRequest, Planner};
+use crate::route::dist;
 use ddp_core::Vector;
-use subgoal_infer::grid::LETHAL;
 
 /// Path steps of the A* oracle's sub-goals (§II-D: 30, 50 and 70).
 pub const ORACLE_STEPS: [usize; 3] = [30, 50, 70];
@@ -1040,10 +1040,6 @@ impl Planner for DdpenPlanner {
         plan.subgoal_seconds = infer;
         Ok(plan)
     }
-}
-
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
 #[cfg(test)]

@@ -1067,6 +1067,18 @@ pub(crate) fn resample_with<S: Fn(f64) -> f64, R: Fn(f64, f64, f64) -> f64>(
 mod tests {
     use super::*;
 
+    /// A seeded uniform generator on `[0, 1)` (a 64-bit LCG's top 53 bits): the tests need no
+    /// `rand` for their random curves.
+    fn lcg(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// The stored nodes are roots of P_n and the weights integrate monomials exactly.
     #[test]
     fn gauss_legendre_tables_integrate_polynomials_exactly() {
@@ -1096,13 +1108,8 @@ mod tests {
     /// Hodographs of cubics (power basis) from a small LCG: control points in `[-1, 1]^2`
     /// (loops, cusps, S-shapes) and nearly straight, spline-like ones.
     fn test_hodographs() -> Vec<[Vec2; 3]> {
-        let mut state: u64 = 0x853C_49E6_748F_EA9B;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        let mut unit = lcg(0x853C_49E6_748F_EA9B);
+        let mut next = || 2.0 * unit() - 1.0;
         let mut out = Vec::new();
         for i in 0..400 {
             // Control points: a chord along x plus perturbations of growing size.
@@ -1210,13 +1217,8 @@ mod tests {
     /// still adapts to the request (fewer evaluations at looser accuracies).
     #[test]
     fn requested_accuracy_is_met_on_random_cubics() {
-        let mut state: u64 = 0x1234_5678_9ABC_DEF1;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        let mut unit = lcg(0x1234_5678_9ABC_DEF1);
+        let mut next = || 2.0 * unit() - 1.0;
         let qs: Vec<[Vec2; 3]> = (0..1000)
             .map(|_| {
                 let p: [Vec2; 4] = core::array::from_fn(|_| Vec2::new(next(), next()));
@@ -1273,13 +1275,7 @@ mod tests {
         use crate::branch_tables::BRANCH_IN_MIN_EPS;
         // int sqrt(u^2 + e^2) du in closed form
         let prim = |u: f64, e: f64| 0.5 * (u * (u * u + e * e).sqrt() + e * e * (u / e).asinh());
-        let mut state: u64 = 0x5DEE_CE66_D1CE_4E5B;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = lcg(0x5DEE_CE66_D1CE_4E5B);
         let mut checked = 0;
         for _ in 0..3000 {
             let eps = 2f64.powf(-30.0 + 33.0 * next());
@@ -1331,13 +1327,7 @@ mod tests {
             };
             (0..=max).find(|&i| amp0 * t0[i] + amp1 * t1[i] <= tol)
         };
-        let mut state: u64 = 0x2545_F491_4F6C_DD1D;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = lcg(0x2545_F491_4F6C_DD1D);
         let mut found = [0usize; 12];
         for k in 0..200_000 {
             let mut z = || {

@@ -583,6 +583,11 @@ fn arclen_batch<'py>(
         "simpson" => true,
         other => return Err(invalid("method", format!("must be \"gauss\" or \"simpson\", got {other:?}")).into()),
     };
+    if !simpson {
+        if let Some(lengths) = cubic_arclen_batch_in_place(py, control_points, field, acc)? {
+            return Ok(lengths);
+        }
+    }
     let a = to_arr(control_points, field)?;
     if a.shape.len() != 3 || a.shape[1] < 1 || a.shape[1] > MAX_CONTROL_POINTS || a.shape[2] != 2 {
         return Err(shape(
@@ -620,6 +625,56 @@ fn arclen_batch<'py>(
         }
     });
     Ok(vec_to_numpy(py, out))
+}
+
+/// Cubics a stack buffer of [`cubic_arclen_batch_in_place`] holds.
+const CUBIC_CHUNK: usize = 256;
+
+/// [`arclen_batch`]'s common case without copies: a C-contiguous float64 array of cubics
+/// (shape `(m, 4, 2)`) is read where it lies and the lengths are written straight into the new
+/// array, through [`CubicBez::arclen_batch`] on stack buffers of [`CUBIC_CHUNK`] cubics. A batch
+/// then allocates nothing but its result: fresh megabyte buffers cost a page fault every 4 KiB,
+/// as much as the arc lengths themselves. `None` when `obj` is anything else (the general path
+/// converts it). The GIL is released, as numpy does for its own loops over an array's buffer.
+fn cubic_arclen_batch_in_place<'py>(
+    py: Python<'py>,
+    obj: &Bound<'py, PyAny>,
+    field: &str,
+    accuracy: f64,
+) -> PyResult<Option<Bound<'py, PyAny>>> {
+    let Ok(array) = obj.cast::<PyArrayDyn<f64>>() else {
+        return Ok(None);
+    };
+    if !array.is_c_contiguous() || array.shape().len() != 3 || array.shape()[1..] != [4, 2] {
+        return Ok(None);
+    }
+    let Ok(view) = array.try_readonly() else {
+        return Ok(None);
+    };
+    let Ok(data) = view.as_slice() else {
+        return Ok(None);
+    };
+    ddp_core::error::check_finite(field, data.iter()).map_err(CoreError)?;
+    let m = array.shape()[0];
+    let out = numpy::PyArray1::<f64>::zeros(py, m, false);
+    {
+        let mut rw = out.readwrite();
+        let lengths = rw
+            .as_slice_mut()
+            .map_err(|e| internal(format!("new array not contiguous: {e}")))?;
+        let result = py.detach(|| -> Result<(), ::bezier::Error> {
+            let mut buf = [CubicBez::default(); CUBIC_CHUNK];
+            for (src, dst) in data.chunks(8 * CUBIC_CHUNK).zip(lengths.chunks_mut(CUBIC_CHUNK)) {
+                for (b, c) in buf.iter_mut().zip(src.chunks_exact(8)) {
+                    *b = CubicBez::new((c[0], c[1]), (c[2], c[3]), (c[4], c[5]), (c[6], c[7]));
+                }
+                CubicBez::arclen_batch(&buf[..dst.len()], accuracy, dst)?;
+            }
+            Ok(())
+        });
+        result.map_err(|e| internal(format!("arclen_batch: {e}")))?;
+    }
+    Ok(Some(out.into_any()))
 }
 
 // ------------------------------------------------------------------------------------------------

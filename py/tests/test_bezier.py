@@ -68,6 +68,29 @@ def test_arclen_batch_equals_per_curve() -> None:
         np.testing.assert_allclose(simpson, batch, atol=1e-6)
 
 
+def test_cubic_arclen_batch_is_bit_identical_in_every_layout() -> None:
+    """Cubics take the in-place batch path (C-contiguous float64) or the converting one (other
+    layouts and types); both equal the one-by-one lengths exactly, across the batch's groups of 4
+    and its 256-curve chunks, near-cusps included."""
+    rng = np.random.default_rng(11)
+    pts = rng.uniform(-1.0, 1.0, (600, 4, 2))
+    pts[::7, 2] = pts[::7, 1] + rng.uniform(-1e-6, 1e-6, (86, 2))  # near-cusps every 7th curve
+    want = np.array([bezier.Bezier(p).arclen(1e-11) for p in pts])
+    strided = np.zeros((600, 4, 3))[:, :, :2]  # not contiguous
+    strided[...] = pts
+    for layout in (pts, np.asfortranarray(pts), strided, pts.tolist()):
+        np.testing.assert_array_equal(bezier.arclen_batch(layout, 1e-11), want)
+    for m in (0, 1, 3, 4, 5, 255, 256, 257):
+        np.testing.assert_array_equal(bezier.arclen_batch(pts[:m], 1e-11), want[:m])
+
+
+def test_cubic_arclen_batch_rejects_non_finite_naming_the_index() -> None:
+    pts = np.zeros((10, 4, 2))
+    pts[6, 2, 1] = np.nan
+    with pytest.raises(ddpkit.NotFiniteError, match=r"control_points\[53\]"):
+        bezier.arclen_batch(pts)
+
+
 # --- vectorised = per point -------------------------------------------------------------------
 
 

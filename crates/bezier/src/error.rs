@@ -31,6 +31,16 @@ pub enum Error {
         /// Why it is rejected.
         reason: &'static str,
     },
+    /// An output slice whose length does not match the input's.
+    #[error("{field} has {got} elements, {expected} expected")]
+    LengthMismatch {
+        /// Name of the argument or field.
+        field: &'static str,
+        /// Elements given.
+        got: usize,
+        /// Elements expected.
+        expected: usize,
+    },
     /// Consecutive elements do not meet (a composite curve with a gap).
     #[error("{field}[{index}] does not start where the previous element ends (gap {gap})")]
     Discontinuous {

@@ -48,6 +48,8 @@ mod branch_tables;
 mod cubic;
 pub mod error;
 mod gauss_legendre;
+#[cfg(target_arch = "x86_64")]
+mod gauss_v3;
 pub mod optimize;
 pub mod point;
 pub mod profile;

@@ -627,15 +627,12 @@ fn arclen_batch<'py>(
     Ok(vec_to_numpy(py, out))
 }
 
-/// Cubics a stack buffer of [`cubic_arclen_batch_in_place`] holds.
-const CUBIC_CHUNK: usize = 256;
-
 /// [`arclen_batch`]'s common case without copies: a C-contiguous float64 array of cubics
-/// (shape `(m, 4, 2)`) is read where it lies and the lengths are written straight into the new
-/// array, through [`CubicBez::arclen_batch`] on stack buffers of [`CUBIC_CHUNK`] cubics. A batch
-/// then allocates nothing but its result: fresh megabyte buffers cost a page fault every 4 KiB,
-/// as much as the arc lengths themselves. `None` when `obj` is anything else (the general path
-/// converts it). The GIL is released, as numpy does for its own loops over an array's buffer.
+/// (shape `(m, 4, 2)`) is read where it lies, cubic by cubic, by [`CubicBez::arclen_batch`],
+/// which writes the lengths straight into the new array. A batch then allocates nothing but its
+/// result: fresh megabyte buffers cost a page fault every 4 KiB, as much as the arc lengths
+/// themselves. `None` when `obj` is anything else (the general path converts it). The GIL is
+/// released, as numpy does for its own loops over an array's buffer.
 fn cubic_arclen_batch_in_place<'py>(
     py: Python<'py>,
     obj: &Bound<'py, PyAny>,
@@ -654,7 +651,6 @@ fn cubic_arclen_batch_in_place<'py>(
     let Ok(data) = view.as_slice() else {
         return Ok(None);
     };
-    ddp_core::error::check_finite(field, data.iter()).map_err(CoreError)?;
     let m = array.shape()[0];
     let out = numpy::PyArray1::<f64>::zeros(py, m, false);
     {
@@ -662,17 +658,22 @@ fn cubic_arclen_batch_in_place<'py>(
         let lengths = rw
             .as_slice_mut()
             .map_err(|e| internal(format!("new array not contiguous: {e}")))?;
-        let result = py.detach(|| -> Result<(), ::bezier::Error> {
-            let mut buf = [CubicBez::default(); CUBIC_CHUNK];
-            for (src, dst) in data.chunks(8 * CUBIC_CHUNK).zip(lengths.chunks_mut(CUBIC_CHUNK)) {
-                for (b, c) in buf.iter_mut().zip(src.chunks_exact(8)) {
-                    *b = CubicBez::new((c[0], c[1]), (c[2], c[3]), (c[4], c[5]), (c[6], c[7]));
-                }
-                CubicBez::arclen_batch(&buf[..dst.len()], accuracy, dst)?;
-            }
-            Ok(())
-        });
-        result.map_err(|e| internal(format!("arclen_batch: {e}")))?;
+        // One branch-free pass (it vectorises) decides finiteness; the error then names the
+        // first non-finite value.
+        let exponent = 0x7ff0_0000_0000_0000u64;
+        let any_bad = data
+            .iter()
+            .fold(false, |bad, v| bad | (v.to_bits() & exponent == exponent));
+        if any_bad {
+            ddp_core::error::check_finite(field, data.iter()).map_err(CoreError)?;
+        }
+        py.detach(|| {
+            let curves = data
+                .chunks_exact(8)
+                .map(|c| CubicBez::new((c[0], c[1]), (c[2], c[3]), (c[4], c[5]), (c[6], c[7])));
+            CubicBez::arclen_batch(curves, accuracy, lengths)
+        })
+        .map_err(|e| internal(format!("arclen_batch: {e}")))?;
     }
     Ok(Some(out.into_any()))
 }

@@ -132,12 +132,18 @@ impl CubicBez {
         [3.0 * (d0 - 2.0 * d1 + d2), 6.0 * (d1 - d0), 3.0 * d0]
     }
 
-    /// Arc lengths of many cubics at `accuracy`: `out[i] = curves[i].arclen(accuracy)`, bit for
-    /// bit, and faster than that loop on long slices (one thread): curves whose rule needs the
-    /// roots of the hodograph (see [`ParamCurveArclen::arclen`] for the method) wait in groups of
-    /// four whose roots are computed side by side, and on x86-64 CPUs with AVX2 and FMA the
-    /// whole batch runs with those instructions. Errors when `out` is not as long as `curves`.
-    pub fn arclen_batch(curves: &[CubicBez], accuracy: f64, out: &mut [f64]) -> Result<()> {
+    /// Arc lengths of many cubics at `accuracy`: `out[i]` is the `i`-th curve's
+    /// [`arclen`](ParamCurveArclen::arclen), bit for bit, and faster than that loop on long
+    /// batches (one thread): curves whose rule needs the roots of the hodograph (see
+    /// [`ParamCurveArclen::arclen`] for the method) wait in groups of four whose roots are
+    /// computed side by side. `curves` is any exact-size iterator (`slice.iter().copied()`, or
+    /// control points mapped to cubics as they are read); errors when `out` is not as long.
+    pub fn arclen_batch<I>(curves: I, accuracy: f64, out: &mut [f64]) -> Result<()>
+    where
+        I: IntoIterator<Item = CubicBez>,
+        I::IntoIter: ExactSizeIterator,
+    {
+        let curves = curves.into_iter();
         if out.len() != curves.len() {
             return Err(Error::LengthMismatch {
                 field: "out",
@@ -145,12 +151,7 @@ impl CubicBez {
                 expected: curves.len(),
             });
         }
-        #[cfg(target_arch = "x86_64")]
-        if let Some(simd) = crate::gauss_v3::available() {
-            simd.vectorize(|| arclen_batch_impl(curves, accuracy, out));
-            return Ok(());
-        }
-        arclen_batch_impl(curves, accuracy, out);
+        arclen_unit_batch(curves.map(|c| c.hodograph_power()), accuracy, out, &singularities);
         Ok(())
     }
 
@@ -162,14 +163,11 @@ impl CubicBez {
     }
 }
 
-/// [`CubicBez::arclen_batch`] after its checks.
-#[inline(always)]
-fn arclen_batch_impl(curves: &[CubicBez], accuracy: f64, out: &mut [f64]) {
-    let roots = |q: &[Vec2; 3]| {
-        let e = CubicArclen::from_hodograph(*q);
-        (e.lead, e.roots, e.n_roots)
-    };
-    arclen_unit_batch(curves.iter().map(|c| c.hodograph_power()), accuracy, out, &roots);
+/// `(lead, roots, how many)` of the hodograph `q`, as [`arclen_quadratic_hodograph`] takes them.
+#[inline]
+fn singularities(q: &[Vec2; 3]) -> (f64, [Complex; 2], usize) {
+    let e = CubicArclen::from_hodograph(*q);
+    (e.lead, e.roots, e.n_roots)
 }
 
 /// Arc-length engine for one cubic: the hodograph in power form and the roots of
@@ -319,11 +317,7 @@ impl ParamCurveArclen for CubicBez {
         // The roots are computed only when the root-free bound cannot pick a rule.
         let q = self.hodograph_power();
         let (lo, hi, sign) = if t1 >= t0 { (t0, t1, 1.0) } else { (t1, t0, -1.0) };
-        let roots = || {
-            let e = CubicArclen::from_hodograph(q);
-            (e.lead, e.roots, e.n_roots)
-        };
-        sign * arclen_quadratic_hodograph(&q, roots, lo, hi, accuracy)
+        sign * arclen_quadratic_hodograph(&q, || singularities(&q), lo, hi, accuracy)
     }
 
     fn inv_arclen(&self, s: f64, accuracy: f64) -> f64 {

@@ -49,7 +49,7 @@ mod cubic;
 pub mod error;
 mod gauss_legendre;
 #[cfg(target_arch = "x86_64")]
-mod gauss_v3;
+mod gauss_simd;
 pub mod optimize;
 pub mod point;
 pub mod profile;

@@ -380,14 +380,14 @@ impl LocalHodograph {
     /// the square root of the pair `+-x`). An odd node out goes alone.
     ///
     /// On x86-64 CPUs with AVX2 and FMA (detected at run time) the sum is
-    /// [`gauss_v3::gauss`](crate::gauss_v3), which moves half the square roots to the
+    /// [`gauss_simd::gauss`](crate::gauss_simd), which moves half the square roots to the
     /// multiply-add units.
     #[inline(always)]
     fn gauss_fixed<const K: usize>(&self, rule: &Soa<K>) -> f64 {
         #[cfg(target_arch = "x86_64")]
         if K >= V3_MIN_HALF {
-            if let Some(simd) = crate::gauss_v3::available() {
-                if let Some(v) = crate::gauss_v3::gauss(simd, self.a, self.b, self.c, &rule.x, &rule.w) {
+            if let Some(simd) = crate::gauss_simd::available() {
+                if let Some(v) = crate::gauss_simd::gauss(simd, self.a, self.b, self.c, &rule.x, &rule.w) {
                     return v;
                 }
             }
@@ -436,6 +436,13 @@ impl LocalHodograph {
         w * (p + n)
     }
 
+    /// [`gauss`](Self::gauss) in one shared copy, for a caller that would otherwise inline
+    /// every rule at several call sites.
+    #[inline(never)]
+    fn gauss_shared(&self, i: usize) -> f64 {
+        self.gauss(i)
+    }
+
     /// [`gauss_fixed`](Self::gauss_fixed) with the rule `RULES[i]` (`ORDERS[i]` points). Always
     /// inlined: the rule dispatch then sits next to the decision that picks it.
     #[inline(always)]
@@ -458,7 +465,7 @@ impl LocalHodograph {
     }
 }
 
-/// Smallest half-table (16-point rule) that [`gauss_v3`](crate::gauss_v3) takes: below it the
+/// Smallest half-table (16-point rule) that [`gauss_simd`](crate::gauss_simd) takes: below it the
 /// call into the AVX2 code costs more than it saves.
 #[cfg(target_arch = "x86_64")]
 const V3_MIN_HALF: usize = 8;
@@ -769,19 +776,33 @@ fn finish_lanes<R: Fn(&[Vec2; 3]) -> (f64, [Complex; 2], usize)>(
 ) {
     let q: [[Vec2; 3]; LANES] = core::array::from_fn(|k| pending[k].q);
     let (r, lead, degenerate) = roots_lanes(&q);
-    for (k, p) in pending.iter().enumerate() {
-        out[p.index] = if degenerate[k] {
-            arclen_quadratic_hodograph(&p.q, || roots(&p.q), lo, hi, accuracy)
+    // The first step of arclen_with_roots for every lane before any rule runs, so that the
+    // lanes' table look-ups overlap too: a curve with no root to cut at whose whole interval one
+    // stored rule suffices (the usual case) is then decided.
+    let w = hi - lo;
+    let rule: [Option<usize>; LANES] = core::array::from_fn(|k| {
+        let near = |z: &Complex| (z.re > lo) & (z.re < hi) & (z.im.abs() < BRANCH_SPLIT * w);
+        let cut = near(&r[k][0]) | near(&r[k][1]);
+        if degenerate[k] || cut {
+            None
         } else {
-            arclen_with_roots(&p.q, &p.l, lead[k], &r[k], lo, hi, p.tol)
+            branch_order(lead[k], &r[k], lo, hi, pending[k].tol, ORDERS.len() - 1)
+        }
+    });
+    let h = 0.5 * (hi - lo);
+    for (k, p) in pending.iter().enumerate() {
+        out[p.index] = match rule[k] {
+            Some(i) => h * p.l.gauss_shared(i),
+            None if degenerate[k] => arclen_quadratic_hodograph(&p.q, || roots(&p.q), lo, hi, accuracy),
+            None => arclen_with_roots(&p.q, &p.l, lead[k], &r[k], lo, hi, p.tol),
         };
     }
 }
 
 /// [`complex_quadratic_roots`] of each lane's hodograph (`lead` and two roots, as
 /// `CubicBez`'s arc length computes them), lane by lane without branches; `true` marks a lane
-/// that hits one of its special cases (fewer than two roots, or a zero `q`), whose values are
-/// then meaningless.
+/// that hits one of its special cases (fewer than two roots, a zero `q`, or the second root
+/// taken as `c / q`), whose values are then meaningless.
 #[inline(always)]
 #[allow(clippy::type_complexity)]
 fn roots_lanes(q: &[[Vec2; 3]; LANES]) -> ([[Complex; 2]; LANES], [f64; LANES], [bool; LANES]) {
@@ -827,25 +848,17 @@ fn roots_lanes(q: &[[Vec2; 3]; LANES]) -> ([[Complex; 2]; LANES], [f64; LANES], 
     let r1re = lanes!(|k| qre[k] * care[k] - qim[k] * caim[k]);
     let r1im = lanes!(|k| qre[k] * caim[k] + qim[k] * care[k]);
     let nq = lanes!(|k| qre[k] * qre[k] + qim[k] * qim[k]);
-    // r2 = -b / a - r1, or c / q when |r2| is much below |r1|.
+    // r2 = -b / a - r1. When |r2| is far below |r1| the scalar code takes c / q instead (no
+    // cancellation); such lanes, rare, go the scalar way as degenerate ones do.
     let sum_re = lanes!(|k| (-bre[k]) * care[k] - (-bim[k]) * caim[k] - r1re[k]);
     let sum_im = lanes!(|k| (-bre[k]) * caim[k] + (-bim[k]) * care[k] - r1im[k]);
-    let inv_q = lanes!(|k| 1.0 / nq[k]);
-    let quo_re = lanes!(|k| (cre[k] * qre[k] + cim[k] * qim[k]) * inv_q[k]);
-    let quo_im = lanes!(|k| (cim[k] * qre[k] - cre[k] * qim[k]) * inv_q[k]);
     let lead = lanes!(|k| na[k].sqrt());
     let mut r = [[Complex::new(0.0, 0.0); 2]; LANES];
     for k in 0..LANES {
-        degenerate[k] |= nq[k] == 0.0;
-        let sum = nc[k] * na[k] >= 1e-8 * nq[k] * nq[k];
-        r[k] = [
-            Complex::new(r1re[k], r1im[k]),
-            if sum {
-                Complex::new(sum_re[k], sum_im[k])
-            } else {
-                Complex::new(quo_re[k], quo_im[k])
-            },
-        ];
+        // `!(x >= y)` also catches nq = 0 (then 0 >= 0 holds only for nc na = 0: degenerate
+        // already) and NaN.
+        degenerate[k] |= nq[k] == 0.0 || !(nc[k] * na[k] >= 1e-8 * nq[k] * nq[k]);
+        r[k] = [Complex::new(r1re[k], r1im[k]), Complex::new(sum_re[k], sum_im[k])];
     }
     (r, lead, degenerate)
 }
@@ -1273,22 +1286,31 @@ mod tests {
         }
     }
 
-    /// The AVX2 + FMA sum (where the CPU has it) agrees with the portable one to a few ulps on
-    /// every rule, at every scale, with nodes on a cusp; it declines non-finite and tiny curves.
+    /// The AVX2 + FMA and AVX-512 sums (where the CPU has them) agree with the portable one to a
+    /// few ulps on every rule, at every scale, with a node on a cusp; they decline non-finite and
+    /// tiny curves.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn avx2_sum_matches_the_portable_sum() {
-        let Some(simd) = pulp::x86::V3::try_new() else {
+    fn simd_sums_match_the_portable_sum() {
+        use crate::gauss_simd::Simd;
+        let tokens: Vec<Simd> = [
+            pulp::x86::V3::try_new().map(Simd::V3),
+            pulp::x86::V4::try_new().map(Simd::V4),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        if tokens.is_empty() {
             eprintln!("no AVX2 + FMA on this CPU: only the portable sum runs");
             return;
-        };
-        fn both<const K: usize>(simd: pulp::x86::V3, l: &LocalHodograph, rule: &Soa<K>) -> (Option<f64>, f64) {
+        }
+        fn both<const K: usize>(simd: Simd, l: &LocalHodograph, rule: &Soa<K>) -> (Option<f64>, f64) {
             (
-                crate::gauss_v3::gauss(simd, l.a, l.b, l.c, &rule.x, &rule.w),
+                crate::gauss_simd::gauss(simd, l.a, l.b, l.c, &rule.x, &rule.w),
                 l.gauss_portable(rule),
             )
         }
-        fn all(simd: pulp::x86::V3, l: &LocalHodograph) -> [(Option<f64>, f64); 11] {
+        fn all(simd: Simd, l: &LocalHodograph) -> [(Option<f64>, f64); 11] {
             [
                 both(simd, l, &S4),
                 both(simd, l, &S6),
@@ -1303,55 +1325,55 @@ mod tests {
                 both(simd, l, &S64),
             ]
         }
-        let mut rnd = lcg(7);
-        let mut v = || Vec2::new(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0);
-        let mut checked = 0;
-        for _ in 0..300 {
-            let (a, b, c) = (v(), v(), v());
-            for scale in [1e-120, 1e-8, 1.0, 1e8, 1e120] {
-                let l = LocalHodograph {
-                    a: a * scale,
-                    b: b * scale,
-                    c: c * scale,
-                };
-                for (i, (got, want)) in all(simd, &l).into_iter().enumerate() {
-                    let got = got.expect("finite, not tiny");
-                    assert!(
-                        (got - want).abs() <= 1e-15 * want,
-                        "rule {i}, scale {scale:e}: {got:e} vs {want:e}"
-                    );
-                    checked += 1;
+        let close = |got: Option<f64>, want: f64| got.is_some_and(|g| (g - want).abs() <= 1e-15 * want);
+        for &simd in &tokens {
+            let mut rnd = lcg(7);
+            let mut v = || Vec2::new(2.0 * rnd() - 1.0, 2.0 * rnd() - 1.0);
+            for _ in 0..300 {
+                let (a, b, c) = (v(), v(), v());
+                for scale in [1e-120, 1e-8, 1.0, 1e8, 1e120] {
+                    let l = LocalHodograph {
+                        a: a * scale,
+                        b: b * scale,
+                        c: c * scale,
+                    };
+                    for (i, (got, want)) in all(simd, &l).into_iter().enumerate() {
+                        assert!(
+                            close(got, want),
+                            "{simd:?} rule {i}, scale {scale:e}: {got:?} vs {want:e}"
+                        );
+                    }
                 }
             }
-        }
-        assert_eq!(checked, 300 * 5 * 11);
-        // Speeds of exactly zero: the zero hodograph (declined as tiny), and B'(x) = x^2 - x0^2
-        // with x0 a node of the rule, zero at +-x0 (both the square-root and the Newton lane).
-        let zero = LocalHodograph {
-            a: Vec2::new(0.0, 0.0),
-            b: Vec2::new(0.0, 0.0),
-            c: Vec2::new(0.0, 0.0),
-        };
-        assert!(all(simd, &zero).iter().all(|&(got, want)| got.is_none() && want == 0.0));
-        for i in 0..RULES.len() {
-            let x0 = RULES[i][0].0;
-            let l = LocalHodograph {
-                a: Vec2::new(1.0, 0.0),
+            // Speeds of exactly zero: the zero hodograph (declined as tiny), and
+            // B'(x) = x^2 - x_j^2 for every node x_j of every rule, zero at +-x_j (both the
+            // square-root lane and the Newton lane, in every group and tail).
+            let zero = LocalHodograph {
+                a: Vec2::new(0.0, 0.0),
                 b: Vec2::new(0.0, 0.0),
-                c: Vec2::new(-x0 * x0, 0.0),
+                c: Vec2::new(0.0, 0.0),
             };
-            let (got, want) = all(simd, &l)[i];
-            let got = got.expect("finite");
-            assert!((got - want).abs() <= 1e-15 * want, "rule {i}: {got:e} vs {want:e}");
-        }
-        // Non-finite and tiny hodographs are declined.
-        for bad in [f64::NAN, f64::INFINITY, 1e-200] {
-            let l = LocalHodograph {
-                a: Vec2::new(bad, 0.0),
-                b: Vec2::new(0.0, bad),
-                c: Vec2::new(bad, bad),
-            };
-            assert!(all(simd, &l).iter().all(|(got, _)| got.is_none()), "{bad:e}");
+            assert!(all(simd, &zero).iter().all(|&(got, want)| got.is_none() && want == 0.0));
+            for (i, rule) in RULES.iter().enumerate() {
+                for &(xj, _) in rule.iter() {
+                    let l = LocalHodograph {
+                        a: Vec2::new(1.0, 0.0),
+                        b: Vec2::new(0.0, 0.0),
+                        c: Vec2::new(-xj * xj, 0.0),
+                    };
+                    let (got, want) = all(simd, &l)[i];
+                    assert!(close(got, want), "{simd:?} rule {i}, cusp at {xj}: {got:?} vs {want:e}");
+                }
+            }
+            // Non-finite and tiny hodographs are declined.
+            for bad in [f64::NAN, f64::INFINITY, 1e-200] {
+                let l = LocalHodograph {
+                    a: Vec2::new(bad, 0.0),
+                    b: Vec2::new(0.0, bad),
+                    c: Vec2::new(bad, bad),
+                };
+                assert!(all(simd, &l).iter().all(|(got, _)| got.is_none()), "{simd:?} {bad:e}");
+            }
         }
     }
 

@@ -58,7 +58,7 @@ fn batch_equals_one_by_one_bit_for_bit() {
     let curves = all_cubics();
     for &accuracy in &[1e-3, 1e-6, 1e-9, 1e-12, 0.0] {
         let mut out = vec![f64::NAN; curves.len()];
-        CubicBez::arclen_batch(&curves, accuracy, &mut out).unwrap();
+        CubicBez::arclen_batch(curves.iter().copied(), accuracy, &mut out).unwrap();
         for (i, (c, &got)) in curves.iter().zip(&out).enumerate() {
             let want = c.arclen(accuracy);
             assert!(
@@ -80,7 +80,7 @@ fn every_batch_length_and_order_gives_the_same_lengths() {
         for start in [0, 1, 2] {
             let curves = &mixed[start.min(mixed.len())..][..n.min(mixed.len() - start)];
             let mut out = vec![0.0; curves.len()];
-            CubicBez::arclen_batch(curves, 1e-10, &mut out).unwrap();
+            CubicBez::arclen_batch(curves.iter().copied(), 1e-10, &mut out).unwrap();
             for (c, &got) in curves.iter().zip(&out) {
                 assert!(same_bits(got, c.arclen(1e-10)));
             }
@@ -94,7 +94,7 @@ fn nan_curves_give_nan_without_disturbing_the_others() {
     curves[3].p1.x = f64::NAN;
     curves[9].p2.y = f64::INFINITY;
     let mut out = vec![0.0; curves.len()];
-    CubicBez::arclen_batch(&curves, 1e-9, &mut out).unwrap();
+    CubicBez::arclen_batch(curves.iter().copied(), 1e-9, &mut out).unwrap();
     assert!(out[3].is_nan());
     assert!(!out[9].is_finite());
     for (i, c) in curves.iter().enumerate() {
@@ -106,7 +106,7 @@ fn nan_curves_give_nan_without_disturbing_the_others() {
 fn wrong_output_length_is_an_error_naming_out() {
     let curves = hard_cubics();
     let mut out = vec![0.0; curves.len() - 1];
-    match CubicBez::arclen_batch(&curves, 1e-9, &mut out) {
+    match CubicBez::arclen_batch(curves.iter().copied(), 1e-9, &mut out) {
         Err(e @ Error::LengthMismatch { field: "out", .. }) => {
             assert!(e.to_string().contains(&curves.len().to_string()), "{e}");
         }

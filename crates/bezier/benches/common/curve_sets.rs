@@ -1,5 +1,6 @@
 //! Curve sets shared by `benches/arclen.rs` and `examples/arclen_sweep.rs` (included with
 //! `#[path]`), as raw control points `[x0, y0, x1, y1, x2, y2, x3, y3]`.
+#![allow(dead_code)] // not every includer uses every set
 
 use bezier::{Point, Spline};
 
@@ -30,11 +31,16 @@ pub fn random_cubics() -> Vec<[f64; 8]> {
 /// walk whose heading turns by up to 0.9 rad and whose steps are 0.5 to 1.5 long (what a robot
 /// path looks like).
 pub fn smooth_cubics() -> Vec<[f64; 8]> {
+    smooth_cubics_n(64)
+}
+
+/// [`smooth_cubics`] with `n` segments: the same walk, continued.
+pub fn smooth_cubics_n(n: usize) -> Vec<[f64; 8]> {
     let mut rng = Lcg(0x2545_F491_4F6C_DD1D);
     let mut p = Point::new(0.0, 0.0);
     let mut heading = 0.0f64;
     let mut waypoints = vec![p];
-    for _ in 0..64 {
+    for _ in 0..n {
         heading += 0.9 * rng.next();
         let step = 1.0 + 0.5 * rng.next();
         p = Point::new(p.x + step * heading.cos(), p.y + step * heading.sin());

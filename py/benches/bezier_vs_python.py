@@ -13,7 +13,14 @@ Needs the ddpkit wheel and ``pip install bezier numpy mpmath``. Times, best of 7
 - a batch of ``M`` curves: ``ddpkit.bezier.arclen_batch`` (one call) vs a Python loop over
   ``bezier.Curve(...).length`` (the package has no batch API), on the same cubic repeated and on
   ``M`` varied smooth cubics (Catmull-Rom segments of a random walk);
+- inverse arc length, which the package lacks: its user's way is Newton on ``t`` with
+  ``Curve.specialize(0, t).length`` and ``Curve.evaluate_hodograph`` (to ``--accuracy`` in
+  length), against ``Bezier.inv_arclen`` for one ``s`` and for 1000 values of ``s`` in one call;
 - evaluation at 1000 parameters (``Bezier.eval`` vs ``Curve.evaluate_multi``).
+
+The batch rows go through ``CubicBez::arclen_batch`` on one thread; ``ddpkit.bezier.simd_level()``
+(printed) says which sums ran (``avx512``, ``avx2+fma`` or ``portable``; ``DDPKIT_SIMD=avx2`` or
+``off`` narrows it).
 
 Accuracy: the PyPI package integrates ``|B'(s)|`` with QUADPACK to near machine precision; its
 error and ours are measured against a 30-digit mpmath reference and printed, and ddpkit runs at
@@ -48,6 +55,19 @@ def smooth_cubics(m: int, seed: int = 0) -> np.ndarray:
     steps = rng.uniform(0.5, 1.5, m + 1)
     walk = np.concatenate([[[0.0, 0.0]], np.cumsum(steps[:, None] * np.stack([np.cos(heading), np.sin(heading)], 1), 0)])
     return ours.Spline.catmull_rom(walk).segments[:m]
+
+
+def pypi_inv_arclen(curve: Any, total: float, s: float, tol: float) -> float:
+    """``t`` with ``length(0, t) = s`` to ``tol`` in length, by the PyPI package's own pieces:
+    Newton on ``t`` with ``specialize(0, t).length`` and ``|evaluate_hodograph(t)|``."""
+    t = s / total
+    for _ in range(60):
+        f = curve.specialize(0.0, t).length - s
+        if abs(f) <= tol:
+            break
+        speed = float(np.hypot(*curve.evaluate_hodograph(t)[:, 0]))
+        t = min(max(t - f / speed, 0.0), 1.0)
+    return t
 
 
 def reference_length(points: np.ndarray) -> float:
@@ -121,11 +141,31 @@ def main() -> int:
         want = np.array([pypi.Curve(c, degree=3).length for c in fortran[:200]])
         results["errors"][f"batch {label}: max |ddpkit - pypi| (200 curves)"] = float(np.max(np.abs(got[:200] - want)))
 
+    # Inverse arc length (the package has none: Newton over its pieces).
+    total = curve.length
+    s_one = 0.37 * total
+    s_many = np.linspace(0.0, total, 1000)
+    t_pypi_inv = best(lambda: pypi_inv_arclen(curve, total, s_one, acc), 2000, repeat=5)
+    t_mine_inv = best(lambda: mine.inv_arclen(s_one, acc), 20_000)
+    t_pypi_inv_many = best(lambda: [pypi_inv_arclen(curve, total, x, acc) for x in s_many], 1, repeat=3) / len(s_many)
+    t_mine_inv_many = best(lambda: mine.inv_arclen(s_many, acc), 20) / len(s_many)
+    rows += [
+        ("inverse arc length, one s", t_pypi_inv, t_mine_inv),
+        (f"inverse arc length, {len(s_many)} s in one call, per s", t_pypi_inv_many, t_mine_inv_many),
+    ]
+    results["errors"]["inverse: max |t_ddpkit - t_pypi| (1000 s)"] = float(
+        np.max(np.abs(mine.inv_arclen(s_many, acc) - np.array([pypi_inv_arclen(curve, total, x, acc) for x in s_many])))
+    )
+
     # Evaluation at 1000 parameters.
     s = np.linspace(0.0, 1.0, 1000)
     rows.append(("eval at 1000 parameters", best(lambda: curve.evaluate_multi(s), 2000), best(lambda: mine.eval(s), 2000)))
 
-    print(f"PyPI bezier {pypi.__version__} (speedup: {results['pypi_speedup']}) vs ddpkit.bezier, accuracy {acc:g}")
+    results["ddpkit_simd"] = ours.simd_level()
+    print(
+        f"PyPI bezier {pypi.__version__} (speedup: {results['pypi_speedup']}) vs ddpkit.bezier "
+        f"(sums: {results['ddpkit_simd']}), accuracy {acc:g}, one thread"
+    )
     print(f"length errors vs a 30-digit reference: " + ", ".join(f"{k} {v:.1e}" for k, v in results["errors"].items()))
     print()
     print("| operation | PyPI bezier | ddpkit | ratio |")

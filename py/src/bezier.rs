@@ -627,6 +627,14 @@ fn arclen_batch<'py>(
     Ok(vec_to_numpy(py, out))
 }
 
+/// The instructions the arc-length sums run with on this CPU: ``"avx512"``, ``"avx2+fma"`` or
+/// ``"portable"`` (chosen at run time; the environment variable ``DDPKIT_SIMD=avx2`` or ``off``
+/// narrows the choice). Results agree to an ulp or two across them.
+#[pyfunction]
+fn simd_level() -> &'static str {
+    ::bezier::simd_level()
+}
+
 /// [`arclen_batch`]'s common case without copies: a C-contiguous float64 array of cubics
 /// (shape `(m, 4, 2)`) is read where it lies, cubic by cubic, by [`CubicBez::arclen_batch`],
 /// which writes the lengths straight into the new array. A batch then allocates nothing but its
@@ -1453,6 +1461,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<TrajectorySamples>()?;
     m.add_class::<SplineOptimizeResult>()?;
     m.add_function(wrap_pyfunction!(arclen_batch, m)?)?;
+    m.add_function(wrap_pyfunction!(simd_level, m)?)?;
     m.add_function(wrap_pyfunction!(spline_cost, m)?)?;
     m.add_function(wrap_pyfunction!(optimize_spline, m)?)?;
     m.add("BEZIER_DEFAULT_ACCURACY", DEFAULT_ACCURACY)?;

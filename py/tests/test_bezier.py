@@ -84,6 +84,32 @@ def test_cubic_arclen_batch_is_bit_identical_in_every_layout() -> None:
         np.testing.assert_array_equal(bezier.arclen_batch(pts[:m], 1e-11), want[:m])
 
 
+def test_simd_levels_agree_and_the_environment_narrows_them() -> None:
+    """``DDPKIT_SIMD`` picks the sums (read once per process, so each level runs in its own
+    interpreter); every level gives the same lengths to a few ulps."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    assert bezier.simd_level() in ("avx512", "avx2+fma", "portable")
+    pts = np.random.default_rng(5).uniform(-1.0, 1.0, (64, 4, 2))
+    code = (
+        "import json, sys, numpy as np; from ddpkit import bezier; "
+        "pts = np.array(json.loads(sys.stdin.read())); "
+        "print(json.dumps([bezier.simd_level(), bezier.arclen_batch(pts, 1e-12).tolist()]))"
+    )
+    here = bezier.arclen_batch(pts, 1e-12)
+    for limit, allowed in (("off", {"portable"}), ("avx2", {"avx2+fma", "portable"})):
+        env = dict(os.environ, DDPKIT_SIMD=limit)
+        out = subprocess.run(
+            [sys.executable, "-c", code], input=json.dumps(pts.tolist()), env=env, capture_output=True, text=True, check=True
+        )
+        level, lengths = json.loads(out.stdout)
+        assert level in allowed
+        np.testing.assert_allclose(lengths, here, rtol=1e-14)
+
+
 def test_cubic_arclen_batch_rejects_non_finite_naming_the_index() -> None:
     pts = np.zeros((10, 4, 2))
     pts[6, 2, 1] = np.nan

@@ -234,7 +234,8 @@ impl<const N: usize> ParamCurveArclen for Bezier<N> {
         let hodo = &h[..N.saturating_sub(1).max(1)];
         let acc = quadrature::sanitize_accuracy(accuracy);
         let total = self.arclen(0.25 * acc);
-        let speed = |t: f64| bernstein::eval_bernstein(hodo, t).to_vec2().hypot();
+        // Newton steps (no second derivative passed).
+        let speed = |t: f64| (bernstein::eval_bernstein(hodo, t).to_vec2().hypot(), 0.0);
         quadrature::inv_arclen_with(speed, |a, b, e| self.arclen_range(a, b, e), s, total, acc)
     }
 }
@@ -458,7 +459,8 @@ impl ParamCurveArclen for BezierDyn {
         let h = self.deriv();
         let acc = quadrature::sanitize_accuracy(accuracy);
         let total = self.arclen(0.25 * acc);
-        let speed = |t: f64| bernstein::eval_bernstein(&h.points, t).to_vec2().hypot();
+        // Newton steps (no second derivative passed).
+        let speed = |t: f64| (bernstein::eval_bernstein(&h.points, t).to_vec2().hypot(), 0.0);
         quadrature::inv_arclen_with(speed, |a, b, e| self.arclen_range(a, b, e), s, total, acc)
     }
 }

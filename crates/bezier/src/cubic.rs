@@ -227,7 +227,24 @@ impl CubicArclen {
     pub fn inv_arclen(&self, s: f64, total: Option<f64>, accuracy: f64) -> f64 {
         let acc = quadrature::sanitize_accuracy(accuracy);
         let total = total.unwrap_or_else(|| self.arclen_range(0.0, 1.0, 0.25 * acc));
-        quadrature::inv_arclen_with(|t| self.speed(t), |a, b, e| self.arclen_range(a, b, e), s, total, acc)
+        quadrature::inv_arclen_with(
+            |t| self.speed_and_rate(t),
+            |a, b, e| self.arclen_range(a, b, e),
+            s,
+            total,
+            acc,
+        )
+    }
+
+    /// `|B'(t)|` and its derivative `B'(t) . B''(t) / |B'(t)|` (zero where the speed vanishes).
+    #[inline(always)]
+    pub(crate) fn speed_and_rate(&self, t: f64) -> (f64, f64) {
+        let [a, b, c] = self.q;
+        let (x, y) = ((a.x * t + b.x) * t + c.x, (a.y * t + b.y) * t + c.y);
+        let (dx, dy) = (2.0 * a.x * t + b.x, 2.0 * a.y * t + b.y);
+        let v = (x * x + y * y).sqrt();
+        let rate = if v > 0.0 { (x * dx + y * dy) / v } else { 0.0 };
+        (v, rate)
     }
 }
 
@@ -332,7 +349,13 @@ impl ParamCurveArclen for CubicBez {
         } else {
             e.arclen_range(0.0, 1.0, 0.25 * acc)
         };
-        quadrature::resample_with(|t| e.speed(t), |a, b, x| e.arclen_range(a, b, x), n, total, acc)
+        quadrature::resample_with(
+            |t| e.speed_and_rate(t),
+            |a, b, x| e.arclen_range(a, b, x),
+            n,
+            total,
+            acc,
+        )
     }
 }
 

@@ -66,6 +66,20 @@ pub use point::{Point, Rect, Vec2};
 pub use profile::{SigmoidProfile, StatesControls, Trajectory, TrajectorySample};
 pub use quad::QuadBez;
 pub use spline::{Continuity, Spline};
+
+/// The instructions the arc-length sums run with on this CPU: `"avx512"`, `"avx2+fma"` or
+/// `"portable"`, chosen at run time (the environment variable `DDPKIT_SIMD` narrows the choice:
+/// `avx2` or `off`). Results agree to an ulp or two across them; speed does not.
+pub fn simd_level() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    match gauss_simd::available() {
+        Some(gauss_simd::Simd::V4(_)) => return "avx512",
+        Some(gauss_simd::Simd::V3(_)) => return "avx2+fma",
+        None => {}
+    }
+    "portable"
+}
+
 pub use traits::{
     curvature_deriv_from, curvature_from, ParamCurve, ParamCurveArclen, ParamCurveCurvature, ParamCurveDeriv,
     ParamCurveExtrema, DEFAULT_ACCURACY, RELATIVE_ACCURACY_FLOOR,

@@ -1163,9 +1163,12 @@ pub(crate) fn simpson_adaptive<F: Fn(f64) -> f64>(f: F, a: f64, b: f64, accuracy
 }
 
 /// Finds `t` in the bracket `lo.0 < t < hi.0` where the arc length from the curve's start is
-/// `s`, given the lengths `lo.1`, `hi.1` at the bracket ends; safeguarded Newton on `L(t) - s`
-/// that integrates only increments (`range(t0, t1, accuracy)`), with `speed(t) = |B'(t)|`.
-pub(crate) fn solve_arclen<S: Fn(f64) -> f64, R: Fn(f64, f64, f64) -> f64>(
+/// `s`, given the lengths `lo.1`, `hi.1` at the bracket ends; safeguarded Halley iteration on
+/// `f(t) = L(t) - s` that integrates only increments (`range(t0, t1, accuracy)`), with
+/// `speed(t) = (|B'(t)|, d|B'(t)|/dt)` (`f'` and `f''`; a zero `f''` makes the step Newton's).
+/// Halley's step `t - 2 f f' / (2 f'^2 - f f'')` triples the correct digits where Newton's
+/// doubles them: one increment fewer from the usual first guess (each costs a quadrature).
+pub(crate) fn solve_arclen<S: Fn(f64) -> (f64, f64), R: Fn(f64, f64, f64) -> f64>(
     speed: S,
     range: R,
     s: f64,
@@ -1203,7 +1206,14 @@ pub(crate) fn solve_arclen<S: Fn(f64) -> f64, R: Fn(f64, f64, f64) -> f64>(
         if hi - lo <= 4.0 * f64::EPSILON * hi.abs().max(1.0) {
             return t;
         }
-        let mut tn = t - err / speed(t);
+        let (v, dv) = speed(t);
+        let denom = 2.0 * v * v - err * dv;
+        // Halley where its denominator keeps the sign of Newton's, else Newton.
+        let mut tn = if denom > v * v {
+            t - 2.0 * err * v / denom
+        } else {
+            t - err / v
+        };
         if !(tn > lo && tn < hi) {
             // Newton left the bracket (or the speed vanished): regula falsi if it makes real
             // progress, else bisection.
@@ -1221,7 +1231,7 @@ pub(crate) fn solve_arclen<S: Fn(f64) -> f64, R: Fn(f64, f64, f64) -> f64>(
 }
 
 /// Default inverse arc length for any [`ParamCurveArclen`] given its total length.
-pub(crate) fn inv_arclen_with<S: Fn(f64) -> f64, R: Fn(f64, f64, f64) -> f64>(
+pub(crate) fn inv_arclen_with<S: Fn(f64) -> (f64, f64), R: Fn(f64, f64, f64) -> f64>(
     speed: S,
     range: R,
     s: f64,
@@ -1240,7 +1250,7 @@ pub(crate) fn inv_arclen_with<S: Fn(f64) -> f64, R: Fn(f64, f64, f64) -> f64>(
 }
 
 /// Parameters of `n` points equally spaced in arc length (see `ParamCurveArclen::resample_uniform`).
-pub(crate) fn resample_with<S: Fn(f64) -> f64, R: Fn(f64, f64, f64) -> f64>(
+pub(crate) fn resample_with<S: Fn(f64) -> (f64, f64), R: Fn(f64, f64, f64) -> f64>(
     speed: S,
     range: R,
     n: usize,

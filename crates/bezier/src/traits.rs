@@ -180,7 +180,13 @@ pub trait ParamCurveArclen: ParamCurve {
     fn inv_arclen(&self, s: f64, accuracy: f64) -> f64 {
         let acc = crate::quadrature::sanitize_accuracy(accuracy);
         let total = self.arclen(0.25 * acc);
-        crate::quadrature::inv_arclen_with(|t| self.speed(t), |a, b, e| self.arclen_range(a, b, e), s, total, acc)
+        crate::quadrature::inv_arclen_with(
+            |t| (self.speed(t), 0.0),
+            |a, b, e| self.arclen_range(a, b, e),
+            s,
+            total,
+            acc,
+        )
     }
 
     /// `n` parameters (both ends included) splitting the curve into `n - 1` pieces of equal
@@ -189,7 +195,13 @@ pub trait ParamCurveArclen: ParamCurve {
     fn resample_uniform(&self, n: usize, accuracy: f64) -> Vec<f64> {
         let acc = crate::quadrature::sanitize_accuracy(accuracy);
         let total = if n < 2 { 0.0 } else { self.arclen(0.25 * acc) };
-        crate::quadrature::resample_with(|t| self.speed(t), |a, b, e| self.arclen_range(a, b, e), n, total, acc)
+        crate::quadrature::resample_with(
+            |t| (self.speed(t), 0.0),
+            |a, b, e| self.arclen_range(a, b, e),
+            n,
+            total,
+            acc,
+        )
     }
 
     /// The points at the parameters of [`resample_uniform`](Self::resample_uniform).

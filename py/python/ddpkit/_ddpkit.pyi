@@ -78,6 +78,7 @@ __all__ = [
     "optimize_spline",
     "sim_run_scenario",
     "sim_safe_turtlebot",
+    "simd_level",
     "spline_cost",
     "subgoal_generate_dataset",
     "subgoal_sample",
@@ -680,6 +681,10 @@ class Bezier:
         """``n`` parameters (ends included) splitting the curve into ``n - 1`` equal lengths."""
     def resample_points(self, n: int, accuracy: float = 1e-9) -> _F64Array:
         """The points at :meth:`resample_uniform`, shape ``(n, 2)``."""
+
+def simd_level() -> str:
+    """The instructions the arc-length sums run with: ``"avx512"``, ``"avx2+fma"`` or ``"portable"``."""
+    ...
 
 def arclen_batch(control_points: _ArrayLike, accuracy: float = 1e-9, method: str = "gauss") -> _F64Array:
     """Arc lengths of ``m`` curves with ``n`` control points each, ``control_points`` of shape

@@ -38,6 +38,11 @@
 //! is an estimate (the model is exact, the product with the other factor is not), checked on
 //! random, near-cusp and degenerate cubics; where no stored rule fits, the Bernstein-ellipse
 //! recursion above takes over.
+//!
+//! The rules' sums run on AVX-512 or AVX2 + FMA where the CPU has them (`gauss_simd`, chosen at
+//! run time; [`crate::simd_level`]). Many cubics at once go through `arclen_unit_batch`
+//! ([`crate::CubicBez::arclen_batch`]), which computes the roots of the curves that need them
+//! four at a time and returns what one curve at a time would, bit for bit.
 
 use crate::branch_tables::{BRANCH_IN, BRANCH_KMAX, BRANCH_KMIN, BRANCH_OUT};
 use crate::gauss_legendre::{GL10, GL12, GL16, GL20, GL24, GL32, GL4, GL48, GL6, GL64, GL8, ORDERS, RULES};

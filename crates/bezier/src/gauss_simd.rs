@@ -62,8 +62,8 @@ const TINY_CURVE: f64 = 1e-140;
 const RSQRT_MAGIC: i64 = 0x5FE6_EB50_C7B5_37A9;
 
 /// `sum_i w_i (|B'(x_i)| + |B'(-x_i)|)` for the hodograph `B'(x) = a x^2 + b x + c` (the
-/// interval mapped to `[-1, 1]`), nodes `x` and weights `w` of a half-table; `None` when the
-/// coefficients are not all finite (the caller then takes the portable sum).
+/// interval mapped to `[-1, 1]`), nodes `x` and weights `w` of a half-table; `None` when the sum
+/// is not finite or the curve is tiny (see below): the caller then takes the portable sum.
 #[inline(always)]
 pub(crate) fn gauss<const K: usize>(simd: Simd, a: Vec2, b: Vec2, c: Vec2, x: &[f64; K], w: &[f64; K]) -> Option<f64> {
     // Squares of speeds below 1e-154 are subnormal, where the estimate is poor (the Newton steps
@@ -93,8 +93,28 @@ fn sum_v4<const K: usize>(simd: V4, a: Vec2, b: Vec2, c: Vec2, x: &[f64; K], w: 
     let mut acc = f._mm512_setzero_pd();
     let mut i = 0;
     while i + 8 <= K {
-        let xv: __m512d = pulp::cast::<[f64; 8], _>(core::array::from_fn(|j| x[i + j]));
-        let wv: __m512d = pulp::cast::<[f64; 8], _>(core::array::from_fn(|j| w[i + j]));
+        // Plain array literals: a closure here (`array::from_fn`) might not inherit the CPU
+        // features and be called per element.
+        let xv: __m512d = pulp::cast([
+            x[i],
+            x[i + 1],
+            x[i + 2],
+            x[i + 3],
+            x[i + 4],
+            x[i + 5],
+            x[i + 6],
+            x[i + 7],
+        ]);
+        let wv: __m512d = pulp::cast([
+            w[i],
+            w[i + 1],
+            w[i + 2],
+            w[i + 3],
+            w[i + 4],
+            w[i + 5],
+            w[i + 6],
+            w[i + 7],
+        ]);
         let x2 = f._mm512_mul_pd(xv, xv);
         let dx = f._mm512_fmadd_pd(ax, x2, cx);
         let dy = f._mm512_fmadd_pd(ay, x2, cy);

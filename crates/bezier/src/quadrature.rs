@@ -32,7 +32,7 @@
 //! piece, where the speed looks like `|t - p|`, which a rule integrates almost exactly, instead
 //! of a kink inside, which no rule does. Each piece takes the smallest rule whose tabulated error
 //! on the model `sqrt((x - x0)^2 + eps^2)` (`tools/gen_branch_tables.py`: the worst case over
-//! branch-point positions and half-octave bins of `eps`, the root's distance from the real axis over
+//! branch-point positions and eighth-octave bins of `eps`, the root's distance from the real axis over
 //! the piece's length), times a bound of the other factor of the speed and a safety factor 2,
 //! fits the piece's share of the tolerance; a whole interval whose rule is small is not cut. This
 //! is an estimate (the model is exact, the product with the other factor is not), checked on
@@ -44,7 +44,7 @@
 //! ([`crate::CubicBez::arclen_batch`]), which computes the roots of the curves that need them
 //! four at a time and returns what one curve at a time would, bit for bit.
 
-use crate::branch_tables::{BRANCH_IN, BRANCH_KMAX, BRANCH_KMIN, BRANCH_OUT};
+use crate::branch_tables::{BRANCH_IN, BRANCH_KMAX, BRANCH_KMIN, BRANCH_OUT, BRANCH_SUB_BITS};
 use crate::gauss_legendre::{GL10, GL12, GL16, GL20, GL24, GL32, GL4, GL48, GL6, GL64, GL8, ORDERS, RULES};
 use crate::point::Vec2;
 #[cfg(doc)]
@@ -936,19 +936,19 @@ const WHOLE_MAX: usize = 8;
 const BRANCH_SAFETY: f64 = 2.0;
 
 /// Bin of `eps` in the branch tables: its binary exponent (clamped to the tabulated range) and
-/// the top bit of its mantissa, which splits the octave at `1.5`.
+/// the top [`BRANCH_SUB_BITS`] bits of its mantissa, which split the octave into eighths.
 #[inline(always)]
 fn branch_bin(eps: f64) -> usize {
     let bits = eps.to_bits();
     let e = ((bits >> 52) & 0x7ff) as i32 - 1023;
-    let top = ((bits >> 51) & 1) as usize;
+    let top = ((bits >> (52 - BRANCH_SUB_BITS)) & ((1 << BRANCH_SUB_BITS) - 1)) as usize;
     if e < BRANCH_KMIN {
         return 0;
     }
     if e > BRANCH_KMAX {
-        return 2 * (BRANCH_KMAX - BRANCH_KMIN) as usize + 1;
+        return (((BRANCH_KMAX - BRANCH_KMIN + 1) as usize) << BRANCH_SUB_BITS) - 1;
     }
-    2 * (e - BRANCH_KMIN) as usize + top
+    (((e - BRANCH_KMIN) as usize) << BRANCH_SUB_BITS) + top
 }
 
 /// The smallest rule whose estimated error on `[a, b]` is at most `tol`, from the tabulated

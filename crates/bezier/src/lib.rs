@@ -67,6 +67,10 @@ pub use point::{Point, Rect, Vec2};
 pub use profile::{SigmoidProfile, StatesControls, Trajectory, TrajectorySample};
 pub use quad::QuadBez;
 pub use spline::{Continuity, Spline};
+pub use traits::{
+    curvature_deriv_from, curvature_from, ParamCurve, ParamCurveArclen, ParamCurveCurvature, ParamCurveDeriv,
+    ParamCurveExtrema, DEFAULT_ACCURACY, RELATIVE_ACCURACY_FLOOR,
+};
 
 /// The instructions the arc-length sums run with on this CPU: `"avx512"`, `"avx2+fma"` or
 /// `"portable"`, chosen at run time (the environment variable `DDPKIT_SIMD` narrows the choice:
@@ -80,8 +84,3 @@ pub fn simd_level() -> &'static str {
     }
     "portable"
 }
-
-pub use traits::{
-    curvature_deriv_from, curvature_from, ParamCurve, ParamCurveArclen, ParamCurveCurvature, ParamCurveDeriv,
-    ParamCurveExtrema, DEFAULT_ACCURACY, RELATIVE_ACCURACY_FLOOR,
-};

@@ -177,36 +177,9 @@ fn sum_v3<const K: usize>(simd: V3, a: Vec2, b: Vec2, c: Vec2, x: &[f64; K], w: 
     let lanes: [f64; 4] = pulp::cast(acc);
     let mut total = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
 
-    // Two nodes, the same way in half-width registers.
-    if K - i >= 2 {
-        let (ax, ay) = (sse2._mm_set1_pd(a.x), sse2._mm_set1_pd(a.y));
-        let (bx, by) = (sse2._mm_set1_pd(b.x), sse2._mm_set1_pd(b.y));
-        let (cx, cy) = (sse2._mm_set1_pd(c.x), sse2._mm_set1_pd(c.y));
-        let (half, three_halves) = (sse2._mm_set1_pd(0.5), sse2._mm_set1_pd(1.5));
-        let magic = sse2._mm_set1_epi64x(RSQRT_MAGIC);
-        let xv: __m128d = pulp::cast([x[i], x[i + 1]]);
-        let wv: __m128d = pulp::cast([w[i], w[i + 1]]);
-        let x2 = sse2._mm_mul_pd(xv, xv);
-        let dx = fma._mm_fmadd_pd(ax, x2, cx);
-        let dy = fma._mm_fmadd_pd(ay, x2, cy);
-        let (px, py) = (fma._mm_fmadd_pd(bx, xv, dx), fma._mm_fmadd_pd(by, xv, dy));
-        let (nx, ny) = (fma._mm_fnmadd_pd(bx, xv, dx), fma._mm_fnmadd_pd(by, xv, dy));
-        let p2 = fma._mm_fmadd_pd(px, px, sse2._mm_mul_pd(py, py));
-        let s = fma._mm_fmadd_pd(nx, nx, sse2._mm_mul_pd(ny, ny));
-        let y: __m128d = pulp::cast(sse2._mm_sub_epi64(magic, sse2._mm_srli_epi64::<1>(pulp::cast(s))));
-        let hs = sse2._mm_mul_pd(half, s);
-        let y = sse2._mm_mul_pd(y, fma._mm_fnmadd_pd(sse2._mm_mul_pd(hs, y), y, three_halves));
-        let y = sse2._mm_mul_pd(y, fma._mm_fnmadd_pd(sse2._mm_mul_pd(hs, y), y, three_halves));
-        let y = sse2._mm_mul_pd(y, fma._mm_fnmadd_pd(sse2._mm_mul_pd(hs, y), y, three_halves));
-        let r = sse2._mm_mul_pd(s, y);
-        let n = fma._mm_fmadd_pd(sse2._mm_mul_pd(half, y), fma._mm_fnmadd_pd(r, r, s), r);
-        let v: [f64; 2] = pulp::cast(sse2._mm_mul_pd(wv, sse2._mm_add_pd(sse2._mm_sqrt_pd(p2), n)));
-        total += v[0] + v[1];
-        i += 2;
-    }
-
-    // One node: both of its square roots in one packed root.
-    if i < K {
+    // The last nodes (fewer than four; in practice two, of the 20-point rule) one at a time, both
+    // square roots of each in one packed root.
+    while i < K {
         let (xi, wi) = (x[i], w[i]);
         let x2 = xi * xi;
         let (dx, dy) = (a.x.mul_add(x2, c.x), a.y.mul_add(x2, c.y));
@@ -215,6 +188,7 @@ fn sum_v3<const K: usize>(simd: V3, a: Vec2, b: Vec2, c: Vec2, x: &[f64; K], w: 
         let s: __m128d = pulp::cast([px.mul_add(px, py * py), nx.mul_add(nx, ny * ny)]);
         let r: [f64; 2] = pulp::cast(sse2._mm_sqrt_pd(s));
         total += wi * (r[0] + r[1]);
+        i += 1;
     }
     total
 }

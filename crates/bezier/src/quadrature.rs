@@ -665,6 +665,27 @@ pub(crate) fn arclen_quadratic_hodograph<S: FnOnce() -> (f64, [Complex; 2], usiz
     hi: f64,
     tol: f64,
 ) -> f64 {
+    let (l, tol) = match start_root_free(q, lo, hi, tol) {
+        Ok(length) => return length,
+        Err(pending) => pending,
+    };
+    let h = 0.5 * (hi - lo);
+    // The roots here, so that their chain of square roots and divisions is under way before
+    // the call below.
+    let (lead, r, n) = roots();
+    if n == 0 {
+        // Only from a zero or non-finite hodograph: any rule is exact, NaN propagates.
+        return h * l.gauss(0);
+    }
+    arclen_with_roots(q, &l, lead, &r[..n], lo, hi, tol)
+}
+
+/// The start of [`arclen_quadratic_hodograph`], shared with [`arclen_unit_batch`]: the length
+/// when the root-free bound picks a rule (or the interval is empty or negligible), else the
+/// hodograph read on the interval and the tolerance raised to the round-off floor, for the
+/// root-based path.
+#[inline(always)]
+fn start_root_free(q: &[Vec2; 3], lo: f64, hi: f64, tol: f64) -> Result<f64, (LocalHodograph, f64)> {
     let h = 0.5 * (hi - lo);
     let m = 0.5 * (lo + hi);
     let l = LocalHodograph::new(q, m, h);
@@ -675,20 +696,13 @@ pub(crate) fn arclen_quadratic_hodograph<S: FnOnce() -> (f64, [Complex; 2], usiz
     let size = 2.0 * h * (lc + lb + 0.5 * la);
     let tol = fmax(RELATIVE_ACCURACY_FLOOR * size, sanitize_accuracy(tol));
     if let Some(i) = rouche_order(la, lb, lc, h, tol) {
-        return h * l.gauss(i);
+        return Ok(h * l.gauss(i));
     }
     if !(hi > lo) || !(size > tol) {
         // An empty or negligible interval (any rule will do), or NaN, which propagates.
-        return h * l.gauss(0);
+        return Ok(h * l.gauss(0));
     }
-    // The roots here, so that their chain of square roots and divisions is under way before
-    // the call below.
-    let (lead, r, n) = roots();
-    if n == 0 {
-        // Only from a zero or non-finite hodograph: any rule is exact, NaN propagates.
-        return h * l.gauss(0);
-    }
-    arclen_with_roots(q, &l, lead, &r[..n], lo, hi, tol)
+    Err((l, tol))
 }
 
 /// Curves whose roots [`arclen_unit_batch`] computes side by side.
@@ -741,21 +755,13 @@ where
     let mut pending = [empty; LANES];
     let mut n = 0;
     for (index, q) in qs.enumerate() {
-        // The start of arclen_quadratic_hodograph.
-        let l = LocalHodograph::new(&q, m, h);
-        let la = l.a.hypot();
-        let lb = l.b.hypot();
-        let lc = (l.c + 0.5 * l.a).hypot();
-        let size = 2.0 * h * (lc + lb + 0.5 * la);
-        let tol = fmax(RELATIVE_ACCURACY_FLOOR * size, sanitize_accuracy(accuracy));
-        if let Some(i) = rouche_order(la, lb, lc, h, tol) {
-            out[index] = h * l.gauss(i);
-            continue;
-        }
-        if !(hi > lo) || !(size > tol) {
-            out[index] = h * l.gauss(0);
-            continue;
-        }
+        let (l, tol) = match start_root_free(&q, lo, hi, accuracy) {
+            Ok(length) => {
+                out[index] = length;
+                continue;
+            }
+            Err(pending) => pending,
+        };
         pending[n] = Pending { q, l, tol, index };
         n += 1;
         if n == LANES {

@@ -5,9 +5,10 @@
 //! cargo run --release -p ddp-core --example demo
 //! ```
 
+use nalgebra::Const;
 use ddp_core::{reference, Method, Problem, Settings, Solver};
 
-fn run<const NX: usize, const NU: usize>(title: &str, problem: &Problem<NX, NU>) -> ddp_core::Result<()> {
+fn run<const NX: usize, const NU: usize>(title: &str, problem: &Problem<Const<NX>, Const<NU>>) -> ddp_core::Result<()> {
     for (label, method) in [("iLQR", Method::Ilqr), ("full DDP", Method::Ddp)] {
         let mut solver = Solver::new(
             problem,

@@ -22,6 +22,7 @@
 //! assert!((fx[(1, 0)] + 9.81 * 0.05).abs() < 1e-15);
 //! ```
 
+use nalgebra::Const;
 use num_dual::{Dual64, DualNum, HyperDual64};
 
 use crate::{Dynamics, Matrix, Vector};
@@ -57,7 +58,7 @@ fn seed<T: Scalar, const NX: usize, const NU: usize>(
     )
 }
 
-impl<const NX: usize, const NU: usize, M: DualDynamics<NX, NU>> Dynamics<NX, NU> for AutoDiff<M> {
+impl<const NX: usize, const NU: usize, M: DualDynamics<NX, NU>> Dynamics<Const<NX>, Const<NU>> for AutoDiff<M> {
     fn step(&self, x: &Vector<NX>, u: &Vector<NU>) -> Vector<NX> {
         Vector::from(self.0.step_generic::<f64>(&lift(x), &lift(u)))
     }

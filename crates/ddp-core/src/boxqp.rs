@@ -7,9 +7,9 @@
 //! Used by box-DDP for the control step at each knot. At the solution the *free* set (controls not
 //! clamped at a bound) defines the feedback: `K_f = -H_ff^{-1} Q_ux,f`, clamped rows zero.
 
-use nalgebra::Cholesky;
+use nalgebra::{Cholesky, Dim, U1};
 
-use crate::{Matrix, Vector};
+use crate::dims::{Allocator, DefaultAllocator, MatrixN, VectorN};
 
 /// Outcome of [`box_qp`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -27,15 +27,18 @@ pub enum BoxQpStatus {
 }
 
 /// Result of [`box_qp`].
-#[derive(Debug, Clone, Copy)]
-pub struct BoxQp<const N: usize> {
+#[derive(Debug, Clone)]
+pub struct BoxQp<N: Dim>
+where
+    DefaultAllocator: Allocator<N> + Allocator<N, N>,
+{
     /// The minimiser (always within the bounds).
-    pub x: Vector<N>,
+    pub x: VectorN<N>,
     /// `free[i]` is true when `x[i]` is not clamped at a bound.
-    pub free: [bool; N],
+    pub free: nalgebra::OVector<bool, N>,
     /// Cholesky factor of `H` with clamped rows and columns replaced by the identity, so that
     /// solving with it gives the free-subspace Newton step (clamped entries pass through).
-    pub chol: Option<Cholesky<f64, nalgebra::Const<N>>>,
+    pub chol: Option<Cholesky<f64, N>>,
     /// How the iteration ended.
     pub status: BoxQpStatus,
     /// Newton iterations used.
@@ -43,8 +46,12 @@ pub struct BoxQp<const N: usize> {
 }
 
 /// `H` with the rows and columns of clamped variables replaced by those of the identity.
-fn reduced<const N: usize>(h: &Matrix<N, N>, free: &[bool; N]) -> Matrix<N, N> {
-    Matrix::from_fn(|i, j| {
+fn reduced<N: Dim>(h: &MatrixN<N, N>, free: &nalgebra::OVector<bool, N>) -> MatrixN<N, N>
+where
+    DefaultAllocator: Allocator<N> + Allocator<N, N>,
+{
+    let (r, c) = h.shape_generic();
+    MatrixN::from_fn_generic(r, c, |i, j| {
         if free[i] && free[j] {
             h[(i, j)]
         } else if i == j {
@@ -55,39 +62,52 @@ fn reduced<const N: usize>(h: &Matrix<N, N>, free: &[bool; N]) -> Matrix<N, N> {
     })
 }
 
+/// The free set at `x`: a variable is clamped when it sits at a bound and the gradient pushes
+/// it further out.
+fn free_set<N: Dim>(x: &VectorN<N>, grad: &VectorN<N>, lower: &VectorN<N>, upper: &VectorN<N>) -> nalgebra::OVector<bool, N>
+where
+    DefaultAllocator: Allocator<N>,
+{
+    let (r, _) = x.shape_generic();
+    nalgebra::OVector::from_fn_generic(r, U1, |i, _| {
+        !((x[i] <= lower[i] && grad[i] > 0.0) || (x[i] >= upper[i] && grad[i] < 0.0))
+    })
+}
+
 /// Solves the box QP from the warm start `x0` (projected onto the box first).
-/// `h` must be symmetric; bounds may be infinite.
-pub fn box_qp<const N: usize>(
-    h: &Matrix<N, N>,
-    g: &Vector<N>,
-    lower: &Vector<N>,
-    upper: &Vector<N>,
-    x0: &Vector<N>,
+/// `h` must be symmetric; bounds may be infinite. Allocates only for run-time sizes.
+pub fn box_qp<N: Dim>(
+    h: &MatrixN<N, N>,
+    g: &VectorN<N>,
+    lower: &VectorN<N>,
+    upper: &VectorN<N>,
+    x0: &VectorN<N>,
     max_iterations: usize,
-) -> BoxQp<N> {
+) -> BoxQp<N>
+where
+    DefaultAllocator: Allocator<N> + Allocator<N, N>,
+{
     const MIN_GRAD: f64 = 1e-10;
     const MIN_REL_IMPROVE: f64 = 1e-12;
     const ARMIJO: f64 = 0.1;
     const STEP_DEC: f64 = 0.6;
     const MIN_STEP: f64 = 1e-22;
 
-    let clamp = |x: &Vector<N>| Vector::<N>::from_fn(|i, _| x[i].clamp(lower[i], upper[i]));
-    let value = |x: &Vector<N>| x.dot(g) + 0.5 * x.dot(&(h * x));
+    let (rows, _) = g.shape_generic();
+    let clamp = |x: &VectorN<N>| VectorN::<N>::from_fn_generic(rows, U1, |i, _| x[i].clamp(lower[i], upper[i]));
+    let value = |x: &VectorN<N>| x.dot(g) + 0.5 * x.dot(&(h * x));
 
     let mut x = clamp(x0);
     let mut f = value(&x);
-    let mut free = [true; N];
+    let mut free = nalgebra::OVector::<bool, N>::from_element_generic(rows, U1, true);
     let mut chol = None;
     let mut status = BoxQpStatus::MaxIterations;
     let mut iterations = 0;
 
     for it in 0..max_iterations {
         iterations = it + 1;
-        let grad = g + h * x;
-        let mut new_free = [true; N];
-        for i in 0..N {
-            new_free[i] = !((x[i] <= lower[i] && grad[i] > 0.0) || (x[i] >= upper[i] && grad[i] < 0.0));
-        }
+        let grad = g + h * &x;
+        let new_free = free_set(&x, &grad, lower, upper);
         if new_free.iter().all(|f| !f) {
             free = new_free;
             chol = Cholesky::new(reduced(h, &free));
@@ -102,7 +122,7 @@ pub fn box_qp<const N: usize>(
                 break;
             }
         }
-        let grad_free = Vector::<N>::from_fn(|i, _| if free[i] { grad[i] } else { 0.0 });
+        let grad_free = VectorN::<N>::from_fn_generic(rows, U1, |i, _| if free[i] { grad[i] } else { 0.0 });
         if grad_free.norm() < MIN_GRAD {
             status = BoxQpStatus::Converged;
             break;
@@ -118,7 +138,7 @@ pub fn box_qp<const N: usize>(
         let mut step = 1.0;
         let (mut x_try, mut f_try);
         loop {
-            x_try = clamp(&(x + step * dx));
+            x_try = clamp(&(&x + &dx * step));
             f_try = value(&x_try);
             if (f_try - f) / (step * slope) > ARMIJO {
                 break;
@@ -141,11 +161,8 @@ pub fn box_qp<const N: usize>(
         if improvement < MIN_REL_IMPROVE * f.abs().max(1e-300) {
             status = BoxQpStatus::Converged;
             // The free set may have changed at the last step: refresh it for the gains.
-            let grad = g + h * x;
-            let mut final_free = [true; N];
-            for i in 0..N {
-                final_free[i] = !((x[i] <= lower[i] && grad[i] > 0.0) || (x[i] >= upper[i] && grad[i] < 0.0));
-            }
+            let grad = g + h * &x;
+            let final_free = free_set(&x, &grad, lower, upper);
             if final_free != free {
                 free = final_free;
                 chol = Cholesky::new(reduced(h, &free));
@@ -165,6 +182,7 @@ pub fn box_qp<const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{Matrix, Vector};
 
     /// Brute force over all active sets of a small QP: the best KKT point that is feasible.
     fn brute<const N: usize>(h: &Matrix<N, N>, g: &Vector<N>, lo: &Vector<N>, hi: &Vector<N>) -> Vector<N> {
@@ -195,6 +213,7 @@ mod tests {
                     x[i]
                 }
             });
+            let free = nalgebra::OVector::<bool, nalgebra::Const<N>>::from_row_slice(&free);
             let Some(ch) = Cholesky::new(reduced(h, &free)) else {
                 continue;
             };
@@ -244,7 +263,7 @@ mod tests {
         let r = box_qp(&h, &g, &(-inf), &inf, &Vector::zeros(), 50);
         let exact = -h.cholesky().unwrap().solve(&g);
         assert!((r.x - exact).amax() < 1e-12);
-        assert_eq!(r.free, [true, true]);
+        assert_eq!(r.free.as_slice(), [true, true]);
     }
 
     #[test]
@@ -260,7 +279,7 @@ mod tests {
             50,
         );
         assert_eq!(r.x, Vector::<2>::new(1.0, -1.0));
-        assert_eq!(r.free, [false, false]);
+        assert_eq!(r.free.as_slice(), [false, false]);
         assert_eq!(r.status, BoxQpStatus::AllClamped);
     }
 }

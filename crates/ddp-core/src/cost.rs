@@ -4,98 +4,154 @@
 //! `d.lx` and so on, and returns `w * l`. Sums of terms ([`crate::costs::CostSum`]) therefore need
 //! no scratch memory, and a weighted sum is just a weight passed down.
 
-use crate::{Matrix, Vector};
+use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
 
 /// First and second derivatives of a running cost at one knot.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CostDerivatives<const NX: usize, const NU: usize> {
+#[derive(Debug, Clone, PartialEq)]
+pub struct CostDerivatives<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     /// `l_x`
-    pub lx: Vector<NX>,
+    pub lx: VectorN<NX>,
     /// `l_u`
-    pub lu: Vector<NU>,
+    pub lu: VectorN<NU>,
     /// `l_xx`
-    pub lxx: Matrix<NX, NX>,
+    pub lxx: MatrixN<NX, NX>,
     /// `l_uu`
-    pub luu: Matrix<NU, NU>,
+    pub luu: MatrixN<NU, NU>,
     /// `l_ux` (shape `NU x NX`)
-    pub lux: Matrix<NU, NX>,
+    pub lux: MatrixN<NU, NX>,
 }
 
-impl<const NX: usize, const NU: usize> Default for CostDerivatives<NX, NU> {
-    fn default() -> Self {
+impl<NX: Dim, NU: Dim> CostDerivatives<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Zero derivatives for `dims` (allocates for run-time sizes).
+    pub fn zeros(dims: Dims<NX, NU>) -> Self {
         Self {
-            lx: Vector::zeros(),
-            lu: Vector::zeros(),
-            lxx: Matrix::zeros(),
-            luu: Matrix::zeros(),
-            lux: Matrix::zeros(),
+            lx: dims.x_zeros(),
+            lu: dims.u_zeros(),
+            lxx: dims.xx_zeros(),
+            luu: dims.uu_zeros(),
+            lux: dims.ux_zeros(),
         }
+    }
+    /// Sets every derivative to zero (in place).
+    pub fn clear(&mut self) {
+        self.lx.fill(0.0);
+        self.lu.fill(0.0);
+        self.lxx.fill(0.0);
+        self.luu.fill(0.0);
+        self.lux.fill(0.0);
     }
 }
 
-impl<const NX: usize, const NU: usize> CostDerivatives<NX, NU> {
-    /// Sets every derivative to zero.
-    pub fn clear(&mut self) {
-        *self = Self::default();
+impl<const NX: usize, const NU: usize> Default for CostDerivatives<nalgebra::Const<NX>, nalgebra::Const<NU>> {
+    fn default() -> Self {
+        Self::zeros(Dims {
+            nx: nalgebra::Const,
+            nu: nalgebra::Const,
+        })
     }
 }
 
 /// First and second derivatives of a terminal cost.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TerminalDerivatives<const NX: usize> {
+#[derive(Debug, Clone, PartialEq)]
+pub struct TerminalDerivatives<NX: Dim>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
     /// `l_x`
-    pub lx: Vector<NX>,
+    pub lx: VectorN<NX>,
     /// `l_xx`
-    pub lxx: Matrix<NX, NX>,
+    pub lxx: MatrixN<NX, NX>,
 }
 
-impl<const NX: usize> Default for TerminalDerivatives<NX> {
-    fn default() -> Self {
+impl<NX: Dim> TerminalDerivatives<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    /// Zero derivatives for `nx` states (allocates for run-time sizes).
+    pub fn zeros(nx: NX) -> Self {
         Self {
-            lx: Vector::zeros(),
-            lxx: Matrix::zeros(),
+            lx: VectorN::zeros_generic(nx, nalgebra::U1),
+            lxx: MatrixN::zeros_generic(nx, nx),
         }
+    }
+    /// Sets every derivative to zero (in place).
+    pub fn clear(&mut self) {
+        self.lx.fill(0.0);
+        self.lxx.fill(0.0);
     }
 }
 
-impl<const NX: usize> TerminalDerivatives<NX> {
-    /// Sets every derivative to zero.
-    pub fn clear(&mut self) {
-        *self = Self::default();
+impl<const NX: usize> Default for TerminalDerivatives<nalgebra::Const<NX>> {
+    fn default() -> Self {
+        Self::zeros(nalgebra::Const)
     }
 }
 
 /// A running cost `l(x, u)`.
-pub trait Cost<const NX: usize, const NU: usize>: Send + Sync {
+pub trait Cost<NX: Dim, NU: Dim>: Send + Sync
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     /// `l(x, u)`.
-    fn value(&self, x: &Vector<NX>, u: &Vector<NU>) -> f64;
+    fn value(&self, x: &VectorN<NX>, u: &VectorN<NU>) -> f64;
     /// Adds `w` times the gradient and Hessian of `l` at `(x, u)` to `d` and returns `w * l(x, u)`.
-    fn add_derivatives(&self, x: &Vector<NX>, u: &Vector<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64;
+    fn add_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64;
+    /// The state and control sizes this cost was built for; `None` where it takes any size.
+    /// Compile-time sizes answer for themselves; a run-time-size cost built from weight
+    /// matrices reports their sizes, so that a problem can reject pieces that disagree.
+    fn sizes(&self) -> (Option<usize>, Option<usize>) {
+        (NX::try_to_usize(), NU::try_to_usize())
+    }
 }
 
 /// A terminal cost `l_N(x)`. Every terminal cost is also a running cost that ignores `u`
 /// (see [`crate::costs::StateOnly`]).
-pub trait TerminalCost<const NX: usize>: Send + Sync {
+pub trait TerminalCost<NX: Dim>: Send + Sync
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
     /// `l_N(x)`.
-    fn value(&self, x: &Vector<NX>) -> f64;
+    fn value(&self, x: &VectorN<NX>) -> f64;
     /// Adds `w` times the gradient and Hessian of `l_N` at `x` to `d` and returns `w * l_N(x)`.
-    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64;
+    fn add_derivatives(&self, x: &VectorN<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64;
+    /// The state size this cost was built for; `None` where it takes any size.
+    fn state_size(&self) -> Option<usize> {
+        NX::try_to_usize()
+    }
 }
 
-impl<const NX: usize, const NU: usize, C: Cost<NX, NU> + ?Sized> Cost<NX, NU> for std::sync::Arc<C> {
-    fn value(&self, x: &Vector<NX>, u: &Vector<NU>) -> f64 {
+impl<NX: Dim, NU: Dim, C: Cost<NX, NU> + ?Sized> Cost<NX, NU> for std::sync::Arc<C>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn value(&self, x: &VectorN<NX>, u: &VectorN<NU>) -> f64 {
         (**self).value(x, u)
     }
-    fn add_derivatives(&self, x: &Vector<NX>, u: &Vector<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
+    fn add_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
         (**self).add_derivatives(x, u, w, d)
+    }
+    fn sizes(&self) -> (Option<usize>, Option<usize>) {
+        (**self).sizes()
     }
 }
 
-impl<const NX: usize, C: TerminalCost<NX> + ?Sized> TerminalCost<NX> for std::sync::Arc<C> {
-    fn value(&self, x: &Vector<NX>) -> f64 {
+impl<NX: Dim, C: TerminalCost<NX> + ?Sized> TerminalCost<NX> for std::sync::Arc<C>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    fn value(&self, x: &VectorN<NX>) -> f64 {
         (**self).value(x)
     }
-    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
+    fn add_derivatives(&self, x: &VectorN<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
         (**self).add_derivatives(x, w, d)
+    }
+    fn state_size(&self) -> Option<usize> {
+        (**self).state_size()
     }
 }

@@ -14,23 +14,20 @@
 //!
 //! ```
 //! use std::sync::Arc;
-//! use ddp_core::costs::{CostSum, ControlSquared, SmoothDistance, StateOnly};
-//! use ddp_core::{Cost, Vector};
-//! let goal = SmoothDistance::<3>::goal([4.0, 0.0], [0, 1], 1e-3, 1.0).unwrap();
-//! let l = CostSum::<3, 2>::new()
-//!     .with(1.0, Arc::new(ControlSquared::new(0.1).unwrap()))
-//!     .with(1.0, Arc::new(StateOnly(goal)));
-//! let v = l.value(&Vector::<3>::zeros(), &Vector::<2>::new(1.0, 0.0));
-//! assert!((v - (0.1 + (16.0f64 + 1e-6).sqrt())).abs() < 1e-12);
-//! ```
 
 use std::sync::Arc;
 
+use nalgebra::{Const, U1};
+
+use crate::dims::{check_size, Alloc, Allocator, DefaultAllocator, Dim, MatrixN, VectorN, MAX_CONTROLS, MAX_STATES};
 use crate::error::{check_finite, check_nonnegative, Error, Result};
-use crate::{Cost, CostDerivatives, Matrix, TerminalCost, TerminalDerivatives, Vector};
+use crate::{Cost, CostDerivatives, TerminalCost, TerminalDerivatives, Vector};
 
 /// Checks that `m` is symmetric and positive semidefinite (tolerance relative to its size).
-pub fn check_psd<const N: usize>(field: &str, m: &Matrix<N, N>) -> Result<()> {
+pub fn check_psd<N: Dim>(field: &str, m: &MatrixN<N, N>) -> Result<()>
+where
+    DefaultAllocator: Allocator<N, N>,
+{
     check_finite(field, m.iter())?;
     let scale = m.amax().max(1.0);
     let asym = (m - m.transpose()).amax();
@@ -40,7 +37,8 @@ pub fn check_psd<const N: usize>(field: &str, m: &Matrix<N, N>) -> Result<()> {
             reason: format!("not symmetric (max |M - M^T| = {asym:e})"),
         });
     }
-    let eig = nalgebra::DMatrix::from_iterator(N, N, m.iter().copied()).symmetric_eigenvalues();
+    let n = m.nrows();
+    let eig = nalgebra::DMatrix::from_iterator(n, n, m.iter().copied()).symmetric_eigenvalues();
     let min = eig.min();
     if min < -1e-10 * scale {
         return Err(Error::NotPsd {
@@ -66,24 +64,73 @@ fn check_indices<const NX: usize>(field: &str, idx: [usize; 2]) -> Result<()> {
     Ok(())
 }
 
-/// `1/2 (x-x_r)^T Q (x-x_r) + 1/2 (u-u_r)^T R (u-u_r)`.
+/// Checks that a square weight and its reference agree in size (`field` names the weight).
+fn check_square<N: Dim>(field: &str, m: &MatrixN<N, N>, reference: &str, r: &VectorN<N>) -> Result<()>
+where
+    DefaultAllocator: Allocator<N> + Allocator<N, N>,
+{
+    if m.nrows() != m.ncols() {
+        return Err(Error::Shape {
+            field: field.to_string(),
+            got: format!("({}, {})", m.nrows(), m.ncols()),
+            expected: "a square matrix".into(),
+        });
+    }
+    if r.len() != m.nrows() {
+        return Err(Error::Shape {
+            field: reference.to_string(),
+            got: format!("({},)", r.len()),
+            expected: format!("({},) like {field}", m.nrows()),
+        });
+    }
+    Ok(())
+}
+
+/// `1/2 (x-x_r)^T Q (x-x_r) + 1/2 (u-u_r)^T R (u-u_r)`, at any size: the sizes are those of
+/// `Q` and `R`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct QuadraticCost<const NX: usize, const NU: usize> {
-    q: Matrix<NX, NX>,
-    r: Matrix<NU, NU>,
-    x_ref: Vector<NX>,
-    u_ref: Vector<NU>,
+pub struct QuadraticCost<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    q: MatrixN<NX, NX>,
+    r: MatrixN<NU, NU>,
+    x_ref: VectorN<NX>,
+    u_ref: VectorN<NU>,
     /// Both weights diagonal: the hot paths use `O(n)` diagonal kernels.
     diagonal: bool,
 }
 
-fn is_diagonal<const N: usize>(m: &Matrix<N, N>) -> bool {
-    (0..N).all(|i| (0..N).all(|j| i == j || m[(i, j)] == 0.0))
+fn is_diagonal<N: Dim>(m: &MatrixN<N, N>) -> bool
+where
+    DefaultAllocator: Allocator<N, N>,
+{
+    let n = m.nrows();
+    (0..n).all(|i| (0..n).all(|j| i == j || m[(i, j)] == 0.0))
 }
 
-impl<const NX: usize, const NU: usize> QuadraticCost<NX, NU> {
-    /// Checks that `q` and `r` are symmetric PSD and the references finite.
-    pub fn new(q: Matrix<NX, NX>, r: Matrix<NU, NU>, x_ref: Vector<NX>, u_ref: Vector<NU>) -> Result<Self> {
+/// A diagonal matrix from a slice, checked against the dimension `N` (compile-time or the
+/// slice's own length).
+fn diagonal_of<N: Dim>(field: &str, d: &[f64], limit: usize) -> Result<MatrixN<N, N>>
+where
+    DefaultAllocator: Allocator<N> + Allocator<N, N>,
+{
+    check_nonnegative(field, d.iter())?;
+    check_size(&format!("len({field})"), d.len(), N::try_to_usize(), limit)?;
+    let n = N::from_usize(d.len());
+    Ok(MatrixN::from_diagonal(&VectorN::from_row_slice_generic(n, U1, d)))
+}
+
+impl<NX: Dim, NU: Dim> QuadraticCost<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Checks that `q` and `r` are symmetric PSD, the references finite, and the sizes agree.
+    pub fn new(q: MatrixN<NX, NX>, r: MatrixN<NU, NU>, x_ref: VectorN<NX>, u_ref: VectorN<NU>) -> Result<Self> {
+        check_square("q", &q, "x_ref", &x_ref)?;
+        check_square("r", &r, "u_ref", &u_ref)?;
+        check_size("q.shape[0]", q.nrows(), NX::try_to_usize(), MAX_STATES)?;
+        check_size("r.shape[0]", r.nrows(), NU::try_to_usize(), MAX_CONTROLS)?;
         check_psd("q", &q)?;
         check_psd("r", &r)?;
         check_finite("x_ref", x_ref.iter())?;
@@ -99,127 +146,161 @@ impl<const NX: usize, const NU: usize> QuadraticCost<NX, NU> {
     }
 
     /// Diagonal weights; negative or non-finite entries are rejected.
-    pub fn diagonal(q: &[f64; NX], r: &[f64; NU], x_ref: Vector<NX>, u_ref: Vector<NU>) -> Result<Self> {
-        check_nonnegative("q", q.iter())?;
-        check_nonnegative("r", r.iter())?;
-        Self::new(
-            Matrix::from_diagonal(&Vector::from_row_slice(q)),
-            Matrix::from_diagonal(&Vector::from_row_slice(r)),
-            x_ref,
-            u_ref,
-        )
+    pub fn diagonal(q: &[f64], r: &[f64], x_ref: VectorN<NX>, u_ref: VectorN<NU>) -> Result<Self> {
+        let q = diagonal_of::<NX>("q", q, MAX_STATES)?;
+        let r = diagonal_of::<NU>("r", r, MAX_CONTROLS)?;
+        Self::new(q, r, x_ref, u_ref)
     }
 
+    /// The state weight `Q`.
+    pub fn q(&self) -> &MatrixN<NX, NX> {
+        &self.q
+    }
+    /// The control weight `R`.
+    pub fn r(&self) -> &MatrixN<NU, NU> {
+        &self.r
+    }
+    /// The state reference.
+    pub fn x_ref(&self) -> &VectorN<NX> {
+        &self.x_ref
+    }
+}
+
+impl<const NX: usize, const NU: usize> QuadraticCost<Const<NX>, Const<NU>> {
     /// P1's cost (Crocoddyl's `ActionModelUnicycle`): `1/2 (w_x^2 |x|^2 + w_u^2 |u|^2)`.
     pub fn weighted_norms(w_x: f64, w_u: f64) -> Result<Self> {
         check_finite("w_x", [w_x].iter())?;
         check_finite("w_u", [w_u].iter())?;
         Self::diagonal(&[w_x * w_x; NX], &[w_u * w_u; NU], Vector::zeros(), Vector::zeros())
     }
-
-    /// The state weight `Q`.
-    pub fn q(&self) -> &Matrix<NX, NX> {
-        &self.q
-    }
-    /// The control weight `R`.
-    pub fn r(&self) -> &Matrix<NU, NU> {
-        &self.r
-    }
-    /// The state reference.
-    pub fn x_ref(&self) -> &Vector<NX> {
-        &self.x_ref
-    }
 }
 
-impl<const NX: usize, const NU: usize> Cost<NX, NU> for QuadraticCost<NX, NU> {
-    fn value(&self, x: &Vector<NX>, u: &Vector<NU>) -> f64 {
-        let dx = x - self.x_ref;
-        let du = u - self.u_ref;
+impl<NX: Dim, NU: Dim> Cost<NX, NU> for QuadraticCost<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn value(&self, x: &VectorN<NX>, u: &VectorN<NU>) -> f64 {
         if self.diagonal {
-            let sx: f64 = (0..NX).map(|i| self.q[(i, i)] * dx[i] * dx[i]).sum();
-            let su: f64 = (0..NU).map(|i| self.r[(i, i)] * du[i] * du[i]).sum();
+            let sx: f64 = (0..x.len())
+                .map(|i| {
+                    let d = x[i] - self.x_ref[i];
+                    self.q[(i, i)] * d * d
+                })
+                .sum();
+            let su: f64 = (0..u.len())
+                .map(|i| {
+                    let d = u[i] - self.u_ref[i];
+                    self.r[(i, i)] * d * d
+                })
+                .sum();
             return 0.5 * (sx + su);
         }
-        0.5 * (dx.dot(&(self.q * dx)) + du.dot(&(self.r * du)))
+        let dx = x - &self.x_ref;
+        let du = u - &self.u_ref;
+        0.5 * (dx.dot(&(&self.q * &dx)) + du.dot(&(&self.r * &du)))
     }
-    fn add_derivatives(&self, x: &Vector<NX>, u: &Vector<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
-        let dx = x - self.x_ref;
-        let du = u - self.u_ref;
+    fn add_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
         if self.diagonal {
             let mut v = 0.0;
-            for i in 0..NX {
+            for i in 0..x.len() {
+                let dx = x[i] - self.x_ref[i];
                 let qi = w * self.q[(i, i)];
-                d.lx[i] += qi * dx[i];
+                d.lx[i] += qi * dx;
                 d.lxx[(i, i)] += qi;
-                v += qi * dx[i] * dx[i];
+                v += qi * dx * dx;
             }
-            for i in 0..NU {
+            for i in 0..u.len() {
+                let du = u[i] - self.u_ref[i];
                 let ri = w * self.r[(i, i)];
-                d.lu[i] += ri * du[i];
+                d.lu[i] += ri * du;
                 d.luu[(i, i)] += ri;
-                v += ri * du[i] * du[i];
+                v += ri * du * du;
             }
             return 0.5 * v;
         }
-        let qdx = self.q * dx;
-        let rdu = self.r * du;
+        let dx = x - &self.x_ref;
+        let du = u - &self.u_ref;
+        let qdx = &self.q * &dx;
+        let rdu = &self.r * &du;
         d.lx.axpy(w, &qdx, 1.0);
         d.lu.axpy(w, &rdu, 1.0);
-        d.lxx += w * self.q;
-        d.luu += w * self.r;
+        d.lxx += &self.q * w;
+        d.luu += &self.r * w;
         0.5 * w * (dx.dot(&qdx) + du.dot(&rdu))
+    }
+    fn sizes(&self) -> (Option<usize>, Option<usize>) {
+        (Some(self.q.nrows()), Some(self.r.nrows()))
     }
 }
 
-/// Terminal `1/2 (x-x_r)^T Q_f (x-x_r)`.
+/// Terminal `1/2 (x-x_r)^T Q_f (x-x_r)`, at any size.
 #[derive(Debug, Clone, PartialEq)]
-pub struct QuadraticTerminal<const NX: usize> {
-    qf: Matrix<NX, NX>,
-    x_ref: Vector<NX>,
+pub struct QuadraticTerminal<NX: Dim>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    qf: MatrixN<NX, NX>,
+    x_ref: VectorN<NX>,
     diagonal: bool,
 }
 
-impl<const NX: usize> QuadraticTerminal<NX> {
-    /// Checks that `qf` is symmetric PSD and `x_ref` finite.
-    pub fn new(qf: Matrix<NX, NX>, x_ref: Vector<NX>) -> Result<Self> {
+impl<NX: Dim> QuadraticTerminal<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    /// Checks that `qf` is symmetric PSD, `x_ref` finite, and the sizes agree.
+    pub fn new(qf: MatrixN<NX, NX>, x_ref: VectorN<NX>) -> Result<Self> {
+        check_square("qf", &qf, "x_ref", &x_ref)?;
+        check_size("qf.shape[0]", qf.nrows(), NX::try_to_usize(), MAX_STATES)?;
         check_psd("qf", &qf)?;
         check_finite("x_ref", x_ref.iter())?;
         let diagonal = is_diagonal(&qf);
         Ok(Self { qf, x_ref, diagonal })
     }
     /// Diagonal weights; negative or non-finite entries are rejected.
-    pub fn diagonal(qf: &[f64; NX], x_ref: Vector<NX>) -> Result<Self> {
-        check_nonnegative("qf", qf.iter())?;
-        Self::new(Matrix::from_diagonal(&Vector::from_row_slice(qf)), x_ref)
+    pub fn diagonal(qf: &[f64], x_ref: VectorN<NX>) -> Result<Self> {
+        Self::new(diagonal_of::<NX>("qf", qf, MAX_STATES)?, x_ref)
     }
     /// The weight `Q_f`.
-    pub fn qf(&self) -> &Matrix<NX, NX> {
+    pub fn qf(&self) -> &MatrixN<NX, NX> {
         &self.qf
     }
     /// The reference state.
-    pub fn x_ref(&self) -> &Vector<NX> {
+    pub fn x_ref(&self) -> &VectorN<NX> {
         &self.x_ref
     }
 }
 
-impl<const NX: usize> TerminalCost<NX> for QuadraticTerminal<NX> {
-    fn value(&self, x: &Vector<NX>) -> f64 {
-        let dx = x - self.x_ref;
+impl<NX: Dim> TerminalCost<NX> for QuadraticTerminal<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    fn value(&self, x: &VectorN<NX>) -> f64 {
         if self.diagonal {
-            return 0.5 * (0..NX).map(|i| self.qf[(i, i)] * dx[i] * dx[i]).sum::<f64>();
+            return 0.5
+                * (0..x.len())
+                    .map(|i| {
+                        let d = x[i] - self.x_ref[i];
+                        self.qf[(i, i)] * d * d
+                    })
+                    .sum::<f64>();
         }
-        0.5 * dx.dot(&(self.qf * dx))
+        let dx = x - &self.x_ref;
+        0.5 * dx.dot(&(&self.qf * &dx))
     }
-    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
-        let dx = x - self.x_ref;
-        let q = self.qf * dx;
+    fn add_derivatives(&self, x: &VectorN<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
+        let dx = x - &self.x_ref;
+        let q = &self.qf * &dx;
         d.lx.axpy(w, &q, 1.0);
-        d.lxx += w * self.qf;
+        d.lxx += &self.qf * w;
         0.5 * w * dx.dot(&q)
+    }
+    fn state_size(&self) -> Option<usize> {
+        Some(self.qf.nrows())
     }
 }
 
-/// `w * sum u^2` (DDPEN eq. 5).
+/// `w * sum u^2` (DDPEN eq. 5), at any size.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ControlSquared {
     weight: f64,
@@ -233,14 +314,17 @@ impl ControlSquared {
     }
 }
 
-impl<const NX: usize, const NU: usize> Cost<NX, NU> for ControlSquared {
-    fn value(&self, _x: &Vector<NX>, u: &Vector<NU>) -> f64 {
+impl<NX: Dim, NU: Dim> Cost<NX, NU> for ControlSquared
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn value(&self, _x: &VectorN<NX>, u: &VectorN<NU>) -> f64 {
         self.weight * u.norm_squared()
     }
-    fn add_derivatives(&self, _x: &Vector<NX>, u: &Vector<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
+    fn add_derivatives(&self, _x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
         let c = w * self.weight;
         d.lu.axpy(2.0 * c, u, 1.0);
-        for i in 0..NU {
+        for i in 0..u.len() {
             d.luu[(i, i)] += 2.0 * c;
         }
         c * u.norm_squared()
@@ -286,13 +370,13 @@ impl<const NX: usize> SmoothDistance<NX> {
     }
 }
 
-impl<const NX: usize> TerminalCost<NX> for SmoothDistance<NX> {
+impl<const NX: usize> TerminalCost<Const<NX>> for SmoothDistance<NX> {
     fn value(&self, x: &Vector<NX>) -> f64 {
         let [i, j] = self.indices;
         let (ex, ey) = (x[i] - self.target[0], x[j] - self.target[1]);
         self.weight * (ex * ex + ey * ey + self.eps * self.eps).sqrt()
     }
-    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
+    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<Const<NX>>) -> f64 {
         let [i, j] = self.indices;
         let e = [x[i] - self.target[0], x[j] - self.target[1]];
         let s = (e[0] * e[0] + e[1] * e[1] + self.eps * self.eps).sqrt();
@@ -350,7 +434,7 @@ impl<const NX: usize> ObstacleHinge<NX> {
     }
 }
 
-impl<const NX: usize> TerminalCost<NX> for ObstacleHinge<NX> {
+impl<const NX: usize> TerminalCost<Const<NX>> for ObstacleHinge<NX> {
     fn value(&self, x: &Vector<NX>) -> f64 {
         let [i, j] = self.indices;
         let mut sum = 0.0;
@@ -360,7 +444,7 @@ impl<const NX: usize> TerminalCost<NX> for ObstacleHinge<NX> {
         }
         self.weight * sum
     }
-    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
+    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<Const<NX>>) -> f64 {
         let [i, j] = self.indices;
         let c = w * self.weight;
         let mut sum = 0.0;
@@ -383,26 +467,64 @@ impl<const NX: usize> TerminalCost<NX> for ObstacleHinge<NX> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StateOnly<T>(pub T);
 
-impl<const NX: usize, const NU: usize, T: TerminalCost<NX>> Cost<NX, NU> for StateOnly<T> {
-    fn value(&self, x: &Vector<NX>, _u: &Vector<NU>) -> f64 {
+impl<NX: Dim, NU: Dim, T: TerminalCost<NX>> Cost<NX, NU> for StateOnly<T>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn value(&self, x: &VectorN<NX>, _u: &VectorN<NU>) -> f64 {
         self.0.value(x)
     }
-    fn add_derivatives(&self, x: &Vector<NX>, _u: &Vector<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
-        let mut t = TerminalDerivatives { lx: d.lx, lxx: d.lxx };
+    fn add_derivatives(&self, x: &VectorN<NX>, _u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
+        // Lend the state blocks to the terminal term: swaps of owned buffers, with empty
+        // placeholders for a run-time size (no copy, no allocation).
+        let (r, _) = x.shape_generic();
+        let ph = if NX::try_to_usize().is_some() { r } else { NX::from_usize(0) };
+        let mut t = TerminalDerivatives {
+            lx: std::mem::replace(&mut d.lx, VectorN::zeros_generic(ph, U1)),
+            lxx: std::mem::replace(&mut d.lxx, MatrixN::zeros_generic(ph, ph)),
+        };
         let v = self.0.add_derivatives(x, w, &mut t);
         d.lx = t.lx;
         d.lxx = t.lxx;
         v
     }
+    fn sizes(&self) -> (Option<usize>, Option<usize>) {
+        (self.0.state_size(), NU::try_to_usize())
+    }
 }
 
 /// Weighted sum of running costs, `sum_i w_i l_i(x, u)` (DDPEN eqs. 3 and 8).
-#[derive(Clone, Default)]
-pub struct CostSum<const NX: usize, const NU: usize> {
+pub struct CostSum<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     terms: Vec<(f64, Arc<dyn Cost<NX, NU>>)>,
 }
 
-impl<const NX: usize, const NU: usize> CostSum<NX, NU> {
+impl<NX: Dim, NU: Dim> Clone for CostSum<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn clone(&self) -> Self {
+        Self {
+            terms: self.terms.clone(),
+        }
+    }
+}
+
+impl<NX: Dim, NU: Dim> Default for CostSum<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn default() -> Self {
+        Self { terms: Vec::new() }
+    }
+}
+
+impl<NX: Dim, NU: Dim> CostSum<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     /// An empty sum (value 0).
     pub fn new() -> Self {
         Self { terms: Vec::new() }
@@ -428,25 +550,61 @@ impl<const NX: usize, const NU: usize> CostSum<NX, NU> {
     }
 }
 
-impl<const NX: usize, const NU: usize> Cost<NX, NU> for CostSum<NX, NU> {
-    fn value(&self, x: &Vector<NX>, u: &Vector<NU>) -> f64 {
+impl<NX: Dim, NU: Dim> Cost<NX, NU> for CostSum<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn value(&self, x: &VectorN<NX>, u: &VectorN<NU>) -> f64 {
         self.terms.iter().map(|(w, t)| w * t.value(x, u)).sum()
     }
-    fn add_derivatives(&self, x: &Vector<NX>, u: &Vector<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
+    fn add_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
         self.terms
             .iter()
             .map(|(wi, t)| t.add_derivatives(x, u, w * wi, d))
             .sum()
     }
+    fn sizes(&self) -> (Option<usize>, Option<usize>) {
+        let mut out = (NX::try_to_usize(), NU::try_to_usize());
+        for (_, t) in &self.terms {
+            let (a, b) = t.sizes();
+            out = (out.0.or(a), out.1.or(b));
+        }
+        out
+    }
 }
 
 /// Weighted sum of terminal costs (DDPEN eq. 4).
-#[derive(Clone, Default)]
-pub struct TerminalSum<const NX: usize> {
+pub struct TerminalSum<NX: Dim>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
     terms: Vec<(f64, Arc<dyn TerminalCost<NX>>)>,
 }
 
-impl<const NX: usize> TerminalSum<NX> {
+impl<NX: Dim> Clone for TerminalSum<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    fn clone(&self) -> Self {
+        Self {
+            terms: self.terms.clone(),
+        }
+    }
+}
+
+impl<NX: Dim> Default for TerminalSum<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    fn default() -> Self {
+        Self { terms: Vec::new() }
+    }
+}
+
+impl<NX: Dim> TerminalSum<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
     /// An empty sum (value 0).
     pub fn new() -> Self {
         Self { terms: Vec::new() }
@@ -464,12 +622,20 @@ impl<const NX: usize> TerminalSum<NX> {
     }
 }
 
-impl<const NX: usize> TerminalCost<NX> for TerminalSum<NX> {
-    fn value(&self, x: &Vector<NX>) -> f64 {
+impl<NX: Dim> TerminalCost<NX> for TerminalSum<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    fn value(&self, x: &VectorN<NX>) -> f64 {
         self.terms.iter().map(|(w, t)| w * t.value(x)).sum()
     }
-    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
+    fn add_derivatives(&self, x: &VectorN<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
         self.terms.iter().map(|(wi, t)| t.add_derivatives(x, w * wi, d)).sum()
+    }
+    fn state_size(&self) -> Option<usize> {
+        self.terms
+            .iter()
+            .fold(NX::try_to_usize(), |acc, (_, t)| acc.or(t.state_size()))
     }
 }
 
@@ -477,11 +643,14 @@ impl<const NX: usize> TerminalCost<NX> for TerminalSum<NX> {
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct NoTerminalCost;
 
-impl<const NX: usize> TerminalCost<NX> for NoTerminalCost {
-    fn value(&self, _x: &Vector<NX>) -> f64 {
+impl<NX: Dim> TerminalCost<NX> for NoTerminalCost
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    fn value(&self, _x: &VectorN<NX>) -> f64 {
         0.0
     }
-    fn add_derivatives(&self, _x: &Vector<NX>, _w: f64, _d: &mut TerminalDerivatives<NX>) -> f64 {
+    fn add_derivatives(&self, _x: &VectorN<NX>, _w: f64, _d: &mut TerminalDerivatives<NX>) -> f64 {
         0.0
     }
 }

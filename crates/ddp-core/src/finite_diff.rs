@@ -1,6 +1,7 @@
 //! Finite differences: a wrapper that gives any `step` function Jacobians (and contracted second
 //! derivatives), and a checker that compares a model's analytic derivatives with them.
 
+use nalgebra::Const;
 use crate::{Dynamics, Matrix, Vector};
 
 /// A discrete map `x_{k+1} = f(x_k, u_k)` without derivatives.
@@ -34,7 +35,7 @@ impl<M> FiniteDiff<M> {
 #[derive(Debug, Clone, Copy)]
 pub struct StepOf<D>(pub D);
 
-impl<const NX: usize, const NU: usize, D: Dynamics<NX, NU>> DiscreteMap<NX, NU> for StepOf<D> {
+impl<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>> DiscreteMap<NX, NU> for StepOf<D> {
     fn step(&self, x: &Vector<NX>, u: &Vector<NU>) -> Vector<NX> {
         self.0.step(x, u)
     }
@@ -72,7 +73,7 @@ fn fd_jacobians<const NX: usize, const NU: usize>(
     }
 }
 
-impl<const NX: usize, const NU: usize, M: DiscreteMap<NX, NU>> Dynamics<NX, NU> for FiniteDiff<M> {
+impl<const NX: usize, const NU: usize, M: DiscreteMap<NX, NU>> Dynamics<Const<NX>, Const<NU>> for FiniteDiff<M> {
     fn step(&self, x: &Vector<NX>, u: &Vector<NU>) -> Vector<NX> {
         self.map.step(x, u)
     }
@@ -142,7 +143,7 @@ impl DerivativeErrors {
 /// Compares the analytic derivatives of `model` at `(x, u)` with central differences of its
 /// `step`; `lambda` contracts the second derivatives. Use a tolerance of about `eps^(1/3)` times
 /// the scale of the model.
-pub fn check_derivatives<const NX: usize, const NU: usize, D: Dynamics<NX, NU>>(
+pub fn check_derivatives<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>>(
     model: &D,
     x: &Vector<NX>,
     u: &Vector<NU>,
@@ -176,7 +177,7 @@ pub fn check_derivatives<const NX: usize, const NU: usize, D: Dynamics<NX, NU>>(
     }
 }
 
-impl<const NX: usize, const NU: usize, D: Dynamics<NX, NU>> Dynamics<NX, NU> for &D {
+impl<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>> Dynamics<Const<NX>, Const<NU>> for &D {
     fn step(&self, x: &Vector<NX>, u: &Vector<NU>) -> Vector<NX> {
         (**self).step(x, u)
     }

@@ -1,121 +1,223 @@
-//! Small fixed-size matrix kernels for the solver's hot loops.
+//! Small dense kernels for the solvers' hot loops, generic over compile-time and run-time sizes.
 //!
-//! nalgebra's generic products go through stride-aware loops that the compiler does not fully
-//! unroll for tiny sizes; these operate on the column-major arrays directly, with const bounds,
-//! so they unroll completely and carry no bounds checks. Each is checked against nalgebra.
+//! They work on the column-major storage of nalgebra matrices directly and write into buffers
+//! the caller owns, so a run-time-size solve allocates nothing. With [`nalgebra::Const`]
+//! dimensions the sizes are constants after inlining: the loops unroll completely and the
+//! bounds checks vanish (nalgebra's generic products go through stride-aware loops that the
+//! compiler does not fully unroll for tiny sizes). Each kernel is checked against nalgebra.
 
-use crate::{Matrix, Vector};
+use nalgebra::{Dim, RawStorage, RawStorageMut};
 
-/// `A B`
+use crate::dims::{Allocator, DefaultAllocator, MatrixN};
+
+/// `out = c + A^T B` (`A` is `K x R`, `B` is `K x C`); `c` may be `None` for zero. The product
+/// is summed first and `c` added last.
 #[inline(always)]
-pub fn mul<const R: usize, const K: usize, const C: usize>(a: &Matrix<R, K>, b: &Matrix<K, C>) -> Matrix<R, C> {
-    let (a, b) = (&a.data.0, &b.data.0);
-    let mut out = [[0.0; R]; C];
-    for j in 0..C {
-        for k in 0..K {
-            let bkj = b[j][k];
-            for i in 0..R {
-                out[j][i] += a[k][i] * bkj;
-            }
-        }
-    }
-    Matrix::from_data(nalgebra::ArrayStorage(out))
-}
-
-/// `A^T B`
-#[inline(always)]
-pub fn tr_mul<const K: usize, const R: usize, const C: usize>(a: &Matrix<K, R>, b: &Matrix<K, C>) -> Matrix<R, C> {
-    let (a, b) = (&a.data.0, &b.data.0);
-    let mut out = [[0.0; R]; C];
-    for j in 0..C {
-        for i in 0..R {
+pub fn tr_mul_add<K: Dim, R: Dim, C: Dim>(
+    out: &mut MatrixN<R, C>,
+    c: Option<&MatrixN<R, C>>,
+    a: &MatrixN<K, R>,
+    b: &MatrixN<K, C>,
+) where
+    DefaultAllocator: Allocator<K, R> + Allocator<K, C> + Allocator<R, C>,
+{
+    let (kk, r, cc) = (a.nrows(), a.ncols(), b.ncols());
+    let (a, b) = (a.as_slice(), b.as_slice());
+    let c = c.map(|c| c.as_slice());
+    let o = out.as_mut_slice();
+    for j in 0..cc {
+        for i in 0..r {
             let mut s = 0.0;
-            for k in 0..K {
-                s += a[i][k] * b[j][k];
+            for k in 0..kk {
+                s += a[i * kk + k] * b[j * kk + k];
             }
-            out[j][i] = s;
+            // The product first, then `c` (the rounding of `c + A^T B` written out).
+            o[j * r + i] = match c {
+                Some(c) => c[j * r + i] + s,
+                None => s,
+            };
         }
     }
-    Matrix::from_data(nalgebra::ArrayStorage(out))
 }
 
-/// `A x`
+/// `out = A B` (`A` is `R x K`, `B` is `K x C`).
 #[inline(always)]
-pub fn mul_vec<const R: usize, const K: usize>(a: &Matrix<R, K>, x: &Vector<K>) -> Vector<R> {
-    let (a, x) = (&a.data.0, &x.data.0[0]);
-    let mut out = [0.0; R];
-    for k in 0..K {
-        for i in 0..R {
-            out[i] += a[k][i] * x[k];
+pub fn mul_to<R: Dim, K: Dim, C: Dim>(out: &mut MatrixN<R, C>, a: &MatrixN<R, K>, b: &MatrixN<K, C>)
+where
+    DefaultAllocator: Allocator<R, K> + Allocator<K, C> + Allocator<R, C>,
+{
+    let (r, kk, cc) = (a.nrows(), a.ncols(), b.ncols());
+    let (a, b) = (a.as_slice(), b.as_slice());
+    let o = out.as_mut_slice();
+    for j in 0..cc {
+        for i in 0..r {
+            o[j * r + i] = 0.0;
+        }
+        for k in 0..kk {
+            let bkj = b[j * kk + k];
+            for i in 0..r {
+                o[j * r + i] += a[k * r + i] * bkj;
+            }
         }
     }
-    Vector::from_data(nalgebra::ArrayStorage([out]))
 }
 
-/// `A^T x`
+/// `out = c + A x` (`A` is `R x K`); `c` may be `None`.
 #[inline(always)]
-pub fn tr_mul_vec<const K: usize, const R: usize>(a: &Matrix<K, R>, x: &Vector<K>) -> Vector<R> {
-    let (a, x) = (&a.data.0, &x.data.0[0]);
-    let mut out = [0.0; R];
-    for i in 0..R {
+pub fn mul_vec_add<R: Dim, K: Dim>(
+    out: &mut MatrixN<R, nalgebra::U1>,
+    c: Option<&MatrixN<R, nalgebra::U1>>,
+    a: &MatrixN<R, K>,
+    x: &MatrixN<K, nalgebra::U1>,
+) where
+    DefaultAllocator: Allocator<R, K> + Allocator<K> + Allocator<R>,
+{
+    let (r, kk) = (a.nrows(), a.ncols());
+    let (a, x) = (a.as_slice(), x.as_slice());
+    let o = out.as_mut_slice();
+    match c {
+        Some(c) => o.copy_from_slice(c.as_slice()),
+        None => o.iter_mut().for_each(|v| *v = 0.0),
+    }
+    for k in 0..kk {
+        for i in 0..r {
+            o[i] += a[k * r + i] * x[k];
+        }
+    }
+}
+
+/// `out = c + A^T x` (`A` is `K x R`); `c` may be `None`. The product is summed first.
+#[inline(always)]
+pub fn tr_mul_vec_add<K: Dim, R: Dim>(
+    out: &mut MatrixN<R, nalgebra::U1>,
+    c: Option<&MatrixN<R, nalgebra::U1>>,
+    a: &MatrixN<K, R>,
+    x: &MatrixN<K, nalgebra::U1>,
+) where
+    DefaultAllocator: Allocator<K, R> + Allocator<K> + Allocator<R>,
+{
+    let (kk, r) = (a.nrows(), a.ncols());
+    let (a, x) = (a.as_slice(), x.as_slice());
+    let c = c.map(|c| c.as_slice());
+    let o = out.as_mut_slice();
+    for i in 0..r {
         let mut s = 0.0;
-        for k in 0..K {
-            s += a[i][k] * x[k];
+        for k in 0..kk {
+            s += a[i * kk + k] * x[k];
         }
-        out[i] = s;
+        o[i] = match c {
+            Some(c) => c[i] + s,
+            None => s,
+        };
     }
-    Vector::from_data(nalgebra::ArrayStorage([out]))
 }
 
-/// `C + A^T B` for a product known to be symmetric: the upper triangle is computed and mirrored.
+/// `out = C + A^T B` for a product known to be symmetric: the upper triangle is computed and
+/// mirrored (`A`, `B` are `K x N`).
 #[inline(always)]
-pub fn add_sym_tr_mul<const K: usize, const N: usize>(
-    c: &Matrix<N, N>,
-    a: &Matrix<K, N>,
-    b: &Matrix<K, N>,
-) -> Matrix<N, N> {
-    let (a, b, c) = (&a.data.0, &b.data.0, &c.data.0);
-    let mut out = [[0.0; N]; N];
-    for j in 0..N {
+pub fn sym_tr_mul_add<K: Dim, N: Dim>(out: &mut MatrixN<N, N>, c: &MatrixN<N, N>, a: &MatrixN<K, N>, b: &MatrixN<K, N>)
+where
+    DefaultAllocator: Allocator<K, N> + Allocator<N, N>,
+{
+    let (kk, n) = (a.nrows(), a.ncols());
+    let (a, b, c) = (a.as_slice(), b.as_slice(), c.as_slice());
+    let o = out.as_mut_slice();
+    for j in 0..n {
         for i in 0..=j {
-            let mut s = c[j][i];
-            for k in 0..K {
-                s += a[i][k] * b[j][k];
+            let mut s = c[j * n + i];
+            for k in 0..kk {
+                s += a[i * kk + k] * b[j * kk + k];
             }
-            out[j][i] = s;
-            out[i][j] = s;
+            o[j * n + i] = s;
+            o[i * n + j] = s;
         }
     }
-    Matrix::from_data(nalgebra::ArrayStorage(out))
 }
 
-/// `C + A^T B + D^T E` for a sum known to be symmetric (upper triangle computed and mirrored).
+/// `out = C + A^T B + D^T E` for a sum known to be symmetric (upper triangle computed and
+/// mirrored; all of `A, B, D, E` are `K x N`).
 #[inline(always)]
-pub fn add_sym_tr_mul2<const K: usize, const N: usize>(
-    c: &Matrix<N, N>,
-    a: &Matrix<K, N>,
-    b: &Matrix<K, N>,
-    d: &Matrix<K, N>,
-    e: &Matrix<K, N>,
-) -> Matrix<N, N> {
-    let (a, b, c, d, e) = (&a.data.0, &b.data.0, &c.data.0, &d.data.0, &e.data.0);
-    let mut out = [[0.0; N]; N];
-    for j in 0..N {
+pub fn sym_tr_mul2_add<K: Dim, N: Dim>(
+    out: &mut MatrixN<N, N>,
+    c: &MatrixN<N, N>,
+    a: &MatrixN<K, N>,
+    b: &MatrixN<K, N>,
+    d: &MatrixN<K, N>,
+    e: &MatrixN<K, N>,
+) where
+    DefaultAllocator: Allocator<K, N> + Allocator<N, N>,
+{
+    let (kk, n) = (a.nrows(), a.ncols());
+    let (a, b, c, d, e) = (a.as_slice(), b.as_slice(), c.as_slice(), d.as_slice(), e.as_slice());
+    let o = out.as_mut_slice();
+    for j in 0..n {
         for i in 0..=j {
-            let mut s = c[j][i];
-            for k in 0..K {
-                s += a[i][k] * b[j][k] + d[i][k] * e[j][k];
+            let mut s = c[j * n + i];
+            for k in 0..kk {
+                s += a[i * kk + k] * b[j * kk + k] + d[i * kk + k] * e[j * kk + k];
             }
-            out[j][i] = s;
-            out[i][j] = s;
+            o[j * n + i] = s;
+            o[i * n + j] = s;
         }
     }
-    Matrix::from_data(nalgebra::ArrayStorage(out))
+}
+
+/// Cholesky factorisation `A = L L^T` in place: the lower triangle of `a` becomes `L` (the
+/// strict upper triangle is left as it was). `false` when `A` is not positive definite.
+#[inline(always)]
+pub fn cholesky_in_place<N: Dim, S: RawStorageMut<f64, N, N>>(a: &mut nalgebra::Matrix<f64, N, N, S>) -> bool {
+    let n = a.nrows();
+    for j in 0..n {
+        let mut d = a[(j, j)];
+        for k in 0..j {
+            d -= a[(j, k)] * a[(j, k)];
+        }
+        if !(d > 0.0) || !d.is_finite() {
+            return false;
+        }
+        let d = d.sqrt();
+        a[(j, j)] = d;
+        for i in j + 1..n {
+            let mut s = a[(i, j)];
+            for k in 0..j {
+                s -= a[(i, k)] * a[(j, k)];
+            }
+            a[(i, j)] = s / d;
+        }
+    }
+    true
+}
+
+/// Solves `L L^T X = B` in place (`l` from [`cholesky_in_place`]), for every column of `b`.
+#[inline(always)]
+pub fn cholesky_solve_in_place<N: Dim, C: Dim, S1: RawStorage<f64, N, N>, S2: RawStorageMut<f64, N, C>>(
+    l: &nalgebra::Matrix<f64, N, N, S1>,
+    b: &mut nalgebra::Matrix<f64, N, C, S2>,
+) {
+    let n = l.nrows();
+    for c in 0..b.ncols() {
+        for i in 0..n {
+            let mut s = b[(i, c)];
+            for k in 0..i {
+                s -= l[(i, k)] * b[(k, c)];
+            }
+            b[(i, c)] = s / l[(i, i)];
+        }
+        for i in (0..n).rev() {
+            let mut s = b[(i, c)];
+            for k in i + 1..n {
+                s -= l[(k, i)] * b[(k, c)];
+            }
+            b[(i, c)] = s / l[(i, i)];
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{Matrix, Vector};
+    use nalgebra::{DMatrix, DVector};
 
     #[test]
     fn kernels_match_nalgebra() {
@@ -124,21 +226,57 @@ mod tests {
         let c = Matrix::<3, 2>::from_fn(|i, j| (i * j) as f64 + 0.25);
         let x = Vector::<4>::new(0.5, -1.0, 2.0, 0.25);
         let y = Vector::<3>::new(1.5, -0.5, 0.75);
-        assert!((mul(&a, &b) - a * b).amax() < 1e-14);
-        assert!((tr_mul(&a, &c) - a.transpose() * c).amax() < 1e-14);
-        assert!((mul_vec(&a, &x) - a * x).amax() < 1e-14);
-        assert!((tr_mul_vec(&a, &y) - a.transpose() * y).amax() < 1e-14);
+        let mut ab = Matrix::<3, 2>::zeros();
+        mul_to(&mut ab, &a, &b);
+        assert!((ab - a * b).amax() < 1e-14);
+        let mut atc = Matrix::<4, 2>::zeros();
+        tr_mul_add(&mut atc, None, &a, &c);
+        assert!((atc - a.transpose() * c).amax() < 1e-14);
+        let mut ax = Vector::<3>::zeros();
+        mul_vec_add(&mut ax, Some(&y), &a, &x);
+        assert!((ax - (y + a * x)).amax() < 1e-14);
+        let mut aty = Vector::<4>::zeros();
+        tr_mul_vec_add(&mut aty, Some(&x), &a, &y);
+        assert!((aty - (x + a.transpose() * y)).amax() < 1e-14);
         let s = Matrix::<3, 3>::new(2.0, 0.5, 0.1, 0.5, 1.0, -0.3, 0.1, -0.3, 3.0);
         let f = Matrix::<3, 3>::from_fn(|i, j| (i + j * j) as f64 * 0.2 - 0.4);
         let sf = s * f;
-        let c = Matrix::<3, 3>::identity();
-        assert!((add_sym_tr_mul(&c, &f, &sf) - (c + f.transpose() * sf)).amax() < 1e-14);
+        let id = Matrix::<3, 3>::identity();
+        let mut out = Matrix::<3, 3>::zeros();
+        sym_tr_mul_add(&mut out, &id, &f, &sf);
+        assert!((out - (id + f.transpose() * sf)).amax() < 1e-14);
         let k = Matrix::<2, 3>::from_fn(|i, j| (i * 3 + j) as f64 * 0.1 - 0.2);
         let q = Matrix::<2, 3>::from_fn(|i, j| (2 * i + j) as f64 * 0.3 - 0.5);
         let quu = Matrix::<2, 2>::new(2.0, 0.3, 0.3, 1.0);
         // K^T (Quu K + Qux) + Qux^T K is symmetric for any K.
         let m = quu * k + q;
-        let full = c + k.transpose() * m + q.transpose() * k;
-        assert!((add_sym_tr_mul2(&c, &k, &m, &q, &k) - full).amax() < 1e-14);
+        let full = id + k.transpose() * m + q.transpose() * k;
+        sym_tr_mul2_add(&mut out, &id, &k, &m, &q, &k);
+        assert!((out - full).amax() < 1e-14);
+    }
+
+    #[test]
+    fn run_time_kernels_and_cholesky_match_nalgebra() {
+        let a = DMatrix::from_fn(5, 7, |i, j| ((i * 7 + j) as f64 * 0.37).sin());
+        let b = DMatrix::from_fn(5, 3, |i, j| ((i + 5 * j) as f64 * 0.71).cos());
+        let mut out = DMatrix::zeros(7, 3);
+        tr_mul_add(&mut out, None, &a, &b);
+        assert!((&out - a.transpose() * &b).amax() < 1e-13);
+        let h = {
+            let m = DMatrix::from_fn(6, 6, |i, j| ((i * 6 + j) as f64 * 0.53).sin());
+            &m * m.transpose() + DMatrix::identity(6, 6)
+        };
+        let rhs = DMatrix::from_fn(6, 2, |i, j| (i as f64) - 2.0 * j as f64);
+        let mut l = h.clone();
+        assert!(cholesky_in_place(&mut l));
+        let mut x = rhs.clone();
+        cholesky_solve_in_place(&l, &mut x);
+        let expected = h.clone().cholesky().unwrap().solve(&rhs);
+        assert!((x - expected).amax() < 1e-12);
+        let mut v = DVector::from_element(6, 1.0);
+        cholesky_solve_in_place(&l, &mut v);
+        assert!((&h * v - DVector::from_element(6, 1.0)).amax() < 1e-12);
+        let mut indefinite = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
+        assert!(!cholesky_in_place(&mut indefinite));
     }
 }

@@ -12,8 +12,9 @@
 //! everything a solve writes lives in a [`Solver`] workspace allocated once, so repeated solves
 //! allocate nothing.
 //!
-//! Fixed-size `nalgebra` matrices are used throughout: the state and control dimensions are
-//! const generics `NX`, `NU`.
+//! Every type is generic over the state and control dimensions `NX, NU` ([`dims`]): nalgebra's
+//! `Const<N>` for the built-in robots (stack matrices, unrolled loops) or `Dyn` for sizes known
+//! only at run time; one text of each algorithm serves both.
 #![doc = "```"]
 #![doc = include_str!("../examples/quickstart.rs")]
 #![doc = "```"]
@@ -21,6 +22,7 @@
 pub mod autodiff;
 pub mod boxqp;
 pub mod cost;
+pub mod dims;
 pub mod costs;
 pub mod dynamics;
 pub mod error;
@@ -37,7 +39,11 @@ pub use cost::{Cost, CostDerivatives, TerminalCost, TerminalDerivatives};
 pub use dynamics::Dynamics;
 pub use error::{Error, Result};
 pub use problem::{ControlBounds, Knot, Problem};
-pub use solver::{IterationLog, Method, Regularization, Report, Settings, Solver, Status};
+pub use dims::{Dims, MatrixN, VectorN};
+pub use solver::{
+    IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Solver, Status,
+    Tolerances,
+};
 
 /// Column vector of `N` `f64`s.
 pub type Vector<const N: usize> = nalgebra::SVector<f64, N>;

@@ -31,6 +31,7 @@
 //! assert!((p.value(&Vector::<3>::new(0.5, 0.0, 0.0)) - 2.0 * 0.75 * 0.75).abs() < 1e-15);
 //! ```
 
+use nalgebra::Const;
 use crate::error::{check_finite, check_nonnegative, Error, Result};
 use crate::{TerminalCost, TerminalDerivatives, Vector};
 
@@ -99,7 +100,7 @@ impl<const NX: usize> CirclePenalty<NX> {
     }
 }
 
-impl<const NX: usize> TerminalCost<NX> for CirclePenalty<NX> {
+impl<const NX: usize> TerminalCost<Const<NX>> for CirclePenalty<NX> {
     fn value(&self, x: &Vector<NX>) -> f64 {
         let [i, j] = self.indices;
         let mut sum = 0.0;
@@ -113,7 +114,7 @@ impl<const NX: usize> TerminalCost<NX> for CirclePenalty<NX> {
         self.weight * sum
     }
 
-    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
+    fn add_derivatives(&self, x: &Vector<NX>, w: f64, d: &mut TerminalDerivatives<Const<NX>>) -> f64 {
         let [i, j] = self.indices;
         let c_w = w * self.weight;
         let mut sum = 0.0;
@@ -139,6 +140,7 @@ impl<const NX: usize> TerminalCost<NX> for CirclePenalty<NX> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::U4;
 
     fn penalty() -> CirclePenalty<4> {
         CirclePenalty::new(vec![[1.0, 0.1, 0.35], [2.0, -0.1, 0.35], [0.9, 0.3, 0.2]], [0, 1], 3.0).unwrap()
@@ -165,7 +167,7 @@ mod tests {
             Vector::<4>::new(2.1, -0.15, 1.0, 2.0),
             Vector::<4>::new(5.0, 5.0, 0.0, 0.0),
         ] {
-            let mut d = TerminalDerivatives::<4>::default();
+            let mut d = TerminalDerivatives::<U4>::default();
             let v = p.add_derivatives(&x, 1.0, &mut d);
             assert!((v - p.value(&x)).abs() <= 1e-14 * (1.0 + v.abs()));
             let fd = fd_gradient(&p, &x);
@@ -182,7 +184,7 @@ mod tests {
     fn hessian_is_gauss_newton_and_psd() {
         let p = CirclePenalty::<4>::new(vec![[0.0, 0.0, 1.0]], [0, 1], 2.0).unwrap();
         let x = Vector::<4>::new(0.3, -0.4, 0.0, 0.0);
-        let mut d = TerminalDerivatives::<4>::default();
+        let mut d = TerminalDerivatives::<U4>::default();
         p.add_derivatives(&x, 0.5, &mut d);
         // 8 * (w_outer * w) * e e^T with e = (0.3, -0.4), w_outer * w = 1.
         let e = [0.3, -0.4];
@@ -203,7 +205,7 @@ mod tests {
             let (mut xp, mut xm) = (x, x);
             xp[a] += step;
             xm[a] -= step;
-            let (mut dp, mut dm) = (TerminalDerivatives::<4>::default(), TerminalDerivatives::<4>::default());
+            let (mut dp, mut dm) = (TerminalDerivatives::<U4>::default(), TerminalDerivatives::<U4>::default());
             p.add_derivatives(&xp, 0.5, &mut dp);
             p.add_derivatives(&xm, 0.5, &mut dm);
             for b in 0..2 {

@@ -9,6 +9,7 @@
 //! | [`quadrotor_reach`] | [`Quadrotor`] | 50 | hover to a point 1 m away and 0.5 m up |
 //! | [`arm_base_reach`] | [`ArmBase`] | 60 | base and arm to a new configuration |
 
+use nalgebra::{Const, U10, U12, U2, U3, U4, U5};
 use std::sync::Arc;
 
 use crate::costs::{QuadraticCost, QuadraticTerminal};
@@ -16,7 +17,7 @@ use crate::models::{ArmBase, Car, DifferentialDrive, DoubleIntegrator2D, Quadrot
 use crate::{ControlBounds, Problem, Vector};
 
 /// P1: Crocoddyl's `ActionModelUnicycle` with its defaults, `x0 = (-1, -1, 1)`, N = 100.
-pub fn p1_unicycle() -> Problem<3, 2> {
+pub fn p1_unicycle() -> Problem<U3, U2> {
     let model = Arc::new(Unicycle::new(0.1).expect("valid dt"));
     let running = Arc::new(QuadraticCost::weighted_norms(10.0, 1.0).expect("valid weights"));
     let terminal = Arc::new(QuadraticTerminal::diagonal(&[100.0; 3], Vector::zeros()).expect("valid weights"));
@@ -27,7 +28,7 @@ fn goal_cost<const NX: usize, const NU: usize>(
     r: [f64; NU],
     qf: [f64; NX],
     goal: Vector<NX>,
-) -> (Arc<QuadraticCost<NX, NU>>, Arc<QuadraticTerminal<NX>>) {
+) -> (Arc<QuadraticCost<Const<NX>, Const<NU>>>, Arc<QuadraticTerminal<Const<NX>>>) {
     (
         Arc::new(QuadraticCost::diagonal(&[0.0; NX], &r, Vector::zeros(), Vector::zeros()).expect("valid weights")),
         Arc::new(QuadraticTerminal::diagonal(&qf, goal).expect("valid weights")),
@@ -35,7 +36,7 @@ fn goal_cost<const NX: usize, const NU: usize>(
 }
 
 /// P2's car (`dt = 0.05`, N = 120, box `|w| <= 0.4`, `|a| <= 0.5`) parking at (2, 1, 0, 0).
-pub fn car_parking() -> Problem<4, 2> {
+pub fn car_parking() -> Problem<U4, U2> {
     let (running, terminal) = goal_cost(
         [0.1, 0.1],
         [100.0, 100.0, 10.0, 10.0],
@@ -52,10 +53,11 @@ pub fn car_parking() -> Problem<4, 2> {
     .with_control_bounds(
         ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).expect("valid box"),
     )
+    .expect("bounds of the control size")
 }
 
 /// P3's double integrator (`dt = 0.05`, N = 100, box 0.8) to (3, 3) at rest, no obstacles.
-pub fn point_reach() -> Problem<4, 2> {
+pub fn point_reach() -> Problem<U4, U2> {
     let (running, terminal) = goal_cost(
         [0.1, 0.1],
         [100.0, 100.0, 10.0, 10.0],
@@ -70,11 +72,12 @@ pub fn point_reach() -> Problem<4, 2> {
     )
     .expect("valid problem")
     .with_control_bounds(ControlBounds::new(Vector::repeat(-0.8), Vector::repeat(0.8)).expect("valid box"))
+    .expect("bounds of the control size")
 }
 
 /// A Turtlebot3-sized differential drive (`dt = 0.1`, N = 90) from (0, 0, 0) to (1.4, 0.6, 0),
 /// wheel speeds within 0.22 m/s.
-pub fn diff_drive_goal() -> Problem<3, 2> {
+pub fn diff_drive_goal() -> Problem<U3, U2> {
     let (running, terminal) = goal_cost([1.0, 1.0], [100.0, 100.0, 10.0], Vector::<3>::new(1.4, 0.6, 0.0));
     Problem::new(
         Vector::zeros(),
@@ -85,10 +88,11 @@ pub fn diff_drive_goal() -> Problem<3, 2> {
     )
     .expect("valid problem")
     .with_control_bounds(ControlBounds::new(Vector::repeat(-0.22), Vector::repeat(0.22)).expect("valid box"))
+    .expect("bounds of the control size")
 }
 
 /// The 12-state quadrotor (`dt = 0.02`, N = 50) from hover at the origin to hover at (1, 0, 0.5).
-pub fn quadrotor_reach() -> Problem<12, 4> {
+pub fn quadrotor_reach() -> Problem<U12, U4> {
     let model = Quadrotor::new(0.02).expect("valid model");
     let hover = model.hover_thrust();
     let mut goal = Vector::<12>::zeros();
@@ -115,7 +119,7 @@ pub fn quadrotor_reach() -> Problem<12, 4> {
 
 /// The planar floating base with a 2-link arm (`dt = 0.05`, N = 60), moving the base 0.5 m and
 /// the joints by (0.8, -0.6) rad, ending at rest.
-pub fn arm_base_reach() -> Problem<10, 5> {
+pub fn arm_base_reach() -> Problem<U10, U5> {
     let mut goal = Vector::<10>::zeros();
     goal[0] = 0.5;
     goal[3] = 0.8;

@@ -1,6 +1,7 @@
 //! Repeated solves allocate nothing: every buffer lives in the solver workspace.
 //! (One test in this binary, so no other test thread allocates while counting.)
 
+use nalgebra::{U2, U4};
 use std::sync::Arc;
 
 use ddp_core::costs::{
@@ -46,7 +47,7 @@ fn repeated_solves_allocate_nothing() {
     }
 
     // The car with box bounds (box-DDP) and a DDPEN-style cost sum with obstacles.
-    let running = CostSum::<4, 2>::new()
+    let running = CostSum::<U4, U2>::new()
         .with(1.0, Arc::new(ControlSquared::new(0.1).unwrap()))
         .with(
             0.1,
@@ -68,7 +69,7 @@ fn repeated_solves_allocate_nothing() {
         120,
     )
     .unwrap()
-    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap());
+    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap()).unwrap();
     let mut solver = Solver::new(&car, Settings::default()).unwrap();
     solver.solve(&car).unwrap();
     let n = count(|| {

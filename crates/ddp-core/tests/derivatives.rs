@@ -2,6 +2,7 @@
 //! (one generic check looped over all models) and against num-dual's exact derivatives of the same
 //! model written generically. Also constructor errors and physical sanity checks.
 
+use nalgebra::Const;
 use ddp_core::autodiff::{AutoDiff, DualDynamics};
 use ddp_core::finite_diff::check_derivatives;
 use ddp_core::models::{ArmBase, ArmBaseParams, Car, DifferentialDrive, DoubleIntegrator2D, Quadrotor, Unicycle};
@@ -40,7 +41,7 @@ struct Worst {
 }
 
 /// Second-order blocks of a model at one point.
-fn second_order<const NX: usize, const NU: usize, D: Dynamics<NX, NU>>(
+fn second_order<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>>(
     model: &D,
     x: &Vector<NX>,
     u: &Vector<NU>,
@@ -56,7 +57,7 @@ fn second_order<const NX: usize, const NU: usize, D: Dynamics<NX, NU>>(
 /// entry: about `eps^(2/3)` is expected for the Jacobians (central differences with step
 /// `eps^(1/3)`) and about `eps^(1/2)` for the nested second differences; the tolerances leave a
 /// margin of more than 30x over the worst errors seen.
-fn check_model<const NX: usize, const NU: usize, D: Dynamics<NX, NU>>(name: &str, model: &D, seed: u64) -> Worst {
+fn check_model<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>>(name: &str, model: &D, seed: u64) -> Worst {
     let tol_first = 1e-3 * f64::EPSILON.cbrt();
     let tol_second = 1e-5;
     assert!(
@@ -112,7 +113,7 @@ fn check_model<const NX: usize, const NU: usize, D: Dynamics<NX, NU>>(name: &str
 /// generic step, to 1e-12 relative.
 fn check_autodiff<const NX: usize, const NU: usize, D>(name: &str, model: D, seed: u64)
 where
-    D: Dynamics<NX, NU> + DualDynamics<NX, NU> + Copy,
+    D: Dynamics<Const<NX>, Const<NU>> + DualDynamics<NX, NU> + Copy,
 {
     let ad = AutoDiff(model);
     let mut rng = Rng(seed);

@@ -1,12 +1,13 @@
 //! Bad input is an `Error` naming the field (and index) and the reason; never a panic.
 
+use nalgebra::{U1, U2};
 use std::sync::Arc;
 
 use ddp_core::costs::{ControlSquared, ObstacleHinge, QuadraticCost, QuadraticTerminal, SmoothDistance};
 use ddp_core::linear::LinearDynamics;
-use ddp_core::{ControlBounds, Error, Matrix, Problem, Settings, Solver, Vector};
+use ddp_core::{ControlBounds, Error, LineSearchSettings, Matrix, Problem, RegularizationSettings, Settings, Solver, Tolerances, Vector};
 
-fn lq(horizon: usize, x0: Vector<2>) -> ddp_core::Result<Problem<2, 1>> {
+fn lq(horizon: usize, x0: Vector<2>) -> ddp_core::Result<Problem<U2, U1>> {
     Problem::new(
         x0,
         Arc::new(LinearDynamics::new(
@@ -48,9 +49,9 @@ fn nan_and_inf_in_x0_name_the_index() {
 
 #[test]
 fn negative_and_nan_weights_name_the_field() {
-    let e = QuadraticCost::<2, 1>::diagonal(&[1.0, -2.0], &[0.1], Vector::zeros(), Vector::zeros()).unwrap_err();
+    let e = QuadraticCost::<U2, U1>::diagonal(&[1.0, -2.0], &[0.1], Vector::zeros(), Vector::zeros()).unwrap_err();
     assert_eq!(message(e), "q[1] is invalid: weight must be non-negative, got -2");
-    let e = QuadraticCost::<2, 1>::diagonal(&[1.0, 1.0], &[f64::NAN], Vector::zeros(), Vector::zeros()).unwrap_err();
+    let e = QuadraticCost::<U2, U1>::diagonal(&[1.0, 1.0], &[f64::NAN], Vector::zeros(), Vector::zeros()).unwrap_err();
     assert!(
         matches!(&e, Error::NotFinite { field, index: 0, .. } if field == "r"),
         "{e}"
@@ -69,11 +70,11 @@ fn negative_and_nan_weights_name_the_field() {
 #[test]
 fn non_psd_and_asymmetric_weights_are_rejected() {
     let q = Matrix::<2, 2>::new(1.0, 2.0, 2.0, 1.0); // eigenvalues 3 and -1
-    let e = QuadraticCost::<2, 1>::new(q, Matrix::identity(), Vector::zeros(), Vector::zeros()).unwrap_err();
+    let e = QuadraticCost::<U2, U1>::new(q, Matrix::identity(), Vector::zeros(), Vector::zeros()).unwrap_err();
     assert!(matches!(&e, Error::NotPsd { field, .. } if field == "q"), "{e}");
     assert!(message(e).contains("eigenvalue"));
     let asym = Matrix::<2, 2>::new(1.0, 0.5, 0.0, 1.0);
-    let e = QuadraticTerminal::<2>::new(asym, Vector::zeros()).unwrap_err();
+    let e = QuadraticTerminal::<U2>::new(asym, Vector::zeros()).unwrap_err();
     assert!(message(e).contains("not symmetric"));
 }
 
@@ -88,7 +89,7 @@ fn bad_indices_are_rejected() {
 
 #[test]
 fn inverted_bounds_name_the_index() {
-    let e = ControlBounds::<2>::new(Vector::<2>::new(-1.0, 2.0), Vector::<2>::new(1.0, 1.0)).unwrap_err();
+    let e = ControlBounds::<U2>::new(Vector::<2>::new(-1.0, 2.0), Vector::<2>::new(1.0, 1.0)).unwrap_err();
     assert!(message(e).starts_with("u_min[1] is invalid"));
 }
 
@@ -105,24 +106,33 @@ fn invalid_settings_name_the_field() {
         ),
         (
             Settings {
-                mu_factor: 1.0,
+                regularization: RegularizationSettings {
+                    mu_factor: 1.0,
+                    ..Default::default()
+                },
                 ..Settings::default()
             },
-            "settings.mu_factor",
+            "settings.regularization.mu_factor",
         ),
         (
             Settings {
-                step_factor: 1.5,
+                line_search: LineSearchSettings {
+                    step_factor: 1.5,
+                    ..Default::default()
+                },
                 ..Settings::default()
             },
-            "settings.step_factor",
+            "settings.line_search.step_factor",
         ),
         (
             Settings {
-                gradient_tolerance: f64::NAN,
+                tolerances: Tolerances {
+                    gradient: f64::NAN,
+                    ..Default::default()
+                },
                 ..Settings::default()
             },
-            "settings.gradient_tolerance",
+            "settings.tolerances.gradient",
         ),
     ] {
         let e = Solver::new(&p, settings).unwrap_err();

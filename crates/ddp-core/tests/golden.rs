@@ -3,6 +3,7 @@
 //! costs fails here. Numbers compare to 1e-6 relative (libm differences across machines are far
 //! smaller), words exactly. Regenerate after an intended change with `DDPKIT_BLESS=1 cargo test`.
 
+use nalgebra::Const;
 use std::path::PathBuf;
 
 use ddp_core::{reference, Method, Problem, Settings, Solver, Status};
@@ -23,7 +24,7 @@ fn same_token(a: &str, b: &str) -> bool {
     }
 }
 
-fn check<const NX: usize, const NU: usize>(name: &str, problem: &Problem<NX, NU>) {
+fn check<const NX: usize, const NU: usize>(name: &str, problem: &Problem<Const<NX>, Const<NU>>) {
     for (label, method) in [("ilqr", Method::Ilqr), ("ddp", Method::Ddp)] {
         let mut solver = Solver::new(
             problem,

@@ -1,11 +1,12 @@
 //! On a linear-quadratic problem, DDP must reproduce the discrete Riccati solution in one
 //! iteration: the same gains and the same optimal trajectory.
 
+use nalgebra::Const;
 use std::sync::Arc;
 
 use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
 use ddp_core::linear::LinearDynamics;
-use ddp_core::{ControlBounds, Matrix, Method, Problem, Regularization, Settings, Solver, Status, Vector};
+use ddp_core::{ControlBounds, Matrix, Method, Problem, Regularization, RegularizationSettings, Settings, Solver, Status, Vector};
 
 const NX: usize = 4;
 const NU: usize = 2;
@@ -59,7 +60,7 @@ fn riccati(p: &Lq) -> (Vec<Matrix<NU, NX>>, Matrix<NX, NX>) {
     (gains, big_p)
 }
 
-fn problem(p: &Lq) -> Problem<NX, NU> {
+fn problem(p: &Lq) -> Problem<Const<NX>, Const<NU>> {
     Problem::new(
         p.x0,
         Arc::new(LinearDynamics::new(p.a, p.b, Vector::zeros()).unwrap()),
@@ -117,7 +118,10 @@ fn full_ddp_equals_riccati() {
 #[test]
 fn state_regularization_equals_riccati_at_zero_mu() {
     check_against_riccati(Settings {
-        regularization: Regularization::State,
+        regularization: RegularizationSettings {
+            placement: Regularization::State,
+            ..Default::default()
+        },
         ..Settings::default()
     });
 }
@@ -126,7 +130,7 @@ fn state_regularization_equals_riccati_at_zero_mu() {
 fn inactive_bounds_change_nothing() {
     let p = lq();
     let (gains, _) = riccati(&p);
-    let prob = problem(&p).with_control_bounds(ControlBounds::new(Vector::repeat(-1e3), Vector::repeat(1e3)).unwrap());
+    let prob = problem(&p).with_control_bounds(ControlBounds::new(Vector::repeat(-1e3), Vector::repeat(1e3)).unwrap()).unwrap();
     let mut solver = Solver::new(&prob, Settings::default()).unwrap();
     let report = solver.solve(&prob).unwrap();
     assert_eq!(report.status, Status::Converged);
@@ -142,7 +146,7 @@ fn active_bounds_are_respected_and_optimal() {
     // pushing outwards, or interior with zero gradient.
     let p = lq();
     let lim = 2.0;
-    let prob = problem(&p).with_control_bounds(ControlBounds::new(Vector::repeat(-lim), Vector::repeat(lim)).unwrap());
+    let prob = problem(&p).with_control_bounds(ControlBounds::new(Vector::repeat(-lim), Vector::repeat(lim)).unwrap()).unwrap();
     let mut solver = Solver::new(&prob, Settings::default()).unwrap();
     let report = solver.solve(&prob).unwrap().clone();
     assert_eq!(report.status, Status::Converged, "{}", report.table());

@@ -22,6 +22,7 @@
 //! interpolated configurations between knots, the TCP ends within the goal ball plus
 //! `goal_tolerance`, and the final base speed and joint rates are at most `max_final_speed`.
 
+use nalgebra::{U10, U5};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -189,7 +190,7 @@ struct CollisionPenalty {
     weight: f64,
 }
 
-impl TerminalCost<10> for CollisionPenalty {
+impl TerminalCost<U10> for CollisionPenalty {
     fn value(&self, x: &Vector<10>) -> f64 {
         let mut v = 0.0;
         for o in &self.scene.obstacles {
@@ -200,7 +201,7 @@ impl TerminalCost<10> for CollisionPenalty {
         }
         self.weight * v
     }
-    fn add_derivatives(&self, x: &Vector<10>, w: f64, d: &mut TerminalDerivatives<10>) -> f64 {
+    fn add_derivatives(&self, x: &Vector<10>, w: f64, d: &mut TerminalDerivatives<U10>) -> f64 {
         let mut v = 0.0;
         for o in &self.scene.obstacles {
             for b in Body::ALL {
@@ -224,15 +225,15 @@ impl TerminalCost<10> for CollisionPenalty {
 
 /// A quadratic running cost plus an optional collision penalty.
 struct TrackingCost {
-    quad: QuadraticCost<10, 5>,
+    quad: QuadraticCost<U10, U5>,
     penalty: Option<StateOnly<Arc<CollisionPenalty>>>,
 }
 
-impl Cost<10, 5> for TrackingCost {
+impl Cost<U10, U5> for TrackingCost {
     fn value(&self, x: &Vector<10>, u: &Vector<5>) -> f64 {
         self.quad.value(x, u) + self.penalty.as_ref().map_or(0.0, |p| p.value(x, u))
     }
-    fn add_derivatives(&self, x: &Vector<10>, u: &Vector<5>, w: f64, d: &mut ddp_core::CostDerivatives<10, 5>) -> f64 {
+    fn add_derivatives(&self, x: &Vector<10>, u: &Vector<5>, w: f64, d: &mut ddp_core::CostDerivatives<U10, U5>) -> f64 {
         let mut v = self.quad.add_derivatives(x, u, w, d);
         if let Some(p) = &self.penalty {
             v += p.add_derivatives(x, u, w, d);
@@ -249,7 +250,7 @@ pub fn tracking_problem(
     x0: &Vector<10>,
     qs: &[Config],
     penalty: bool,
-) -> Result<Problem<10, 5>> {
+) -> Result<Problem<U10, U5>> {
     settings.validate()?;
     if qs.len() < 2 {
         return Err(Error::invalid(
@@ -260,7 +261,7 @@ pub fn tracking_problem(
     let m = settings.knots_per_stage;
     let dt = scene.robot.dt();
     let stage = m as f64 * dt;
-    let dynamics: Arc<dyn ddp_core::Dynamics<10, 5>> = Arc::new(scene.robot);
+    let dynamics: Arc<dyn ddp_core::Dynamics<U10, U5>> = Arc::new(scene.robot);
     let pen = penalty.then(|| {
         Arc::new(CollisionPenalty {
             scene: scene.clone(),
@@ -282,7 +283,7 @@ pub fn tracking_problem(
         x_ref.fixed_rows_mut::<5>(0).copy_from(&q_ref);
         x_ref.fixed_rows_mut::<5>(5).copy_from(&v_ref);
         let quad = QuadraticCost::diagonal(&q_diag, &settings.control_weight, x_ref, Vector::zeros())?;
-        let cost: Arc<dyn Cost<10, 5>> = Arc::new(TrackingCost {
+        let cost: Arc<dyn Cost<U10, U5>> = Arc::new(TrackingCost {
             quad,
             penalty: pen.clone().map(StateOnly),
         });
@@ -297,7 +298,7 @@ pub fn tracking_problem(
     let q_last = qs[qs.len() - 1];
     let mut x_goal = Vector::<10>::zeros();
     x_goal.fixed_rows_mut::<5>(0).copy_from(&q_last);
-    let terminal: Arc<dyn TerminalCost<10>> = match &pen {
+    let terminal: Arc<dyn TerminalCost<U10>> = match &pen {
         Some(p) => Arc::new(
             ddp_core::costs::TerminalSum::new()
                 .with(1.0, Arc::new(QuadraticTerminal::diagonal(&qf, x_goal)?))
@@ -306,7 +307,7 @@ pub fn tracking_problem(
         None => Arc::new(QuadraticTerminal::diagonal(&qf, x_goal)?),
     };
     let lim = Vector::<5>::from_row_slice(&settings.control_limits);
-    Ok(Problem::from_knots(*x0, knots, terminal)?.with_control_bounds(ControlBounds::new(-lim, lim)?))
+    Ok(Problem::from_knots(*x0, knots, terminal)?.with_control_bounds(ControlBounds::new(-lim, lim)?)?)
 }
 
 /// Solves the NLP for the configurations `qs` (`q_0` must be the configuration of `x0`) and
@@ -326,8 +327,10 @@ pub fn solve(scene: &Arc<Scene>, settings: &NlpSettings, x0: &Vector<10>, qs: &[
         let mut s = ddp_core::Settings {
             method: Method::Ilqr,
             max_iterations: settings.warm_start_iterations.max(1),
-            gradient_tolerance: 1e-8,
-            cost_tolerance: 1e-9,
+            tolerances: ddp_core::Tolerances {
+                gradient: 1e-8,
+                cost: 1e-9,
+            },
             ..ddp_core::Settings::default()
         };
         let mut ws = Solver::new(&tracking, s)?;

@@ -7,6 +7,7 @@
 //!   with Clarabel as fallback; `clarabel` sends every QP to Clarabel.
 //! - `peers/p2`, `peers/p3`: cold solves of P2 and P3 (`bench/problems.md`).
 
+use nalgebra::{U2, U4};
 use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
@@ -18,7 +19,7 @@ use safe_cddp::constraints::Circle;
 use safe_cddp::qp::QpMethod;
 use safe_cddp::{Constraint, SafeCddpSolver, Settings, Tightening};
 
-fn car_n90() -> (Problem<4, 2>, Vec<Arc<dyn Constraint<4, 2>>>) {
+fn car_n90() -> (Problem<U4, U2>, Vec<Arc<dyn Constraint<4, 2>>>) {
     let running = Arc::new(QuadraticCost::diagonal(&[0.0; 4], &[0.1, 0.1], Vector::zeros(), Vector::zeros()).unwrap());
     let terminal = Arc::new(
         QuadraticTerminal::diagonal(&[100.0, 100.0, 10.0, 10.0], Vector::<4>::new(3.0, 0.0, 0.0, 0.0)).unwrap(),
@@ -31,7 +32,7 @@ fn car_n90() -> (Problem<4, 2>, Vec<Arc<dyn Constraint<4, 2>>>) {
         90,
     )
     .unwrap()
-    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap());
+    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap()).unwrap();
     let obstacles: Vec<Arc<dyn Constraint<4, 2>>> = vec![
         Arc::new(Circle::squared([1.0, 0.1], 0.35, [0, 1]).unwrap()),
         Arc::new(Circle::squared([2.0, -0.1], 0.35, [0, 1]).unwrap()),

@@ -10,6 +10,7 @@
 //! # Ok::<(), ddp_core::Error>(())
 //! ```
 
+use nalgebra::{Const, U2, U3, U4};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -110,7 +111,7 @@ impl BenchmarkProblem {
         Self::from_json(&text)
     }
 
-    fn bounds<const NU: usize>(&self) -> Result<Option<ControlBounds<NU>>> {
+    fn bounds<const NU: usize>(&self) -> Result<Option<ControlBounds<Const<NU>>>> {
         match (&self.u_min, &self.u_max) {
             (None, None) => Ok(None),
             (lo, hi) => {
@@ -127,9 +128,9 @@ impl BenchmarkProblem {
         }
     }
 
-    fn build<const NX: usize, const NU: usize>(&self, dynamics: Arc<dyn Dynamics<NX, NU>>) -> Result<Problem<NX, NU>> {
+    fn build<const NX: usize, const NU: usize>(&self, dynamics: Arc<dyn Dynamics<Const<NX>, Const<NU>>>) -> Result<Problem<Const<NX>, Const<NU>>> {
         let x0 = vector::<NX>("x0", &self.x0)?;
-        let (running, terminal): (Arc<QuadraticCost<NX, NU>>, Arc<QuadraticTerminal<NX>>) = match &self.cost {
+        let (running, terminal): (Arc<QuadraticCost<Const<NX>, Const<NU>>>, Arc<QuadraticTerminal<Const<NX>>>) = match &self.cost {
             BenchmarkCost::Unicycle { w_x, w_u } => (
                 Arc::new(QuadraticCost::weighted_norms(*w_x, *w_u)?),
                 Arc::new(QuadraticTerminal::diagonal(&[w_x * w_x; NX], Vector::zeros())?),
@@ -141,22 +142,22 @@ impl BenchmarkProblem {
                 (
                     Arc::new(QuadraticCost::diagonal(
                         &[0.0; NX],
-                        &r.into(),
+                        r.as_slice(),
                         Vector::zeros(),
                         Vector::zeros(),
                     )?),
-                    Arc::new(QuadraticTerminal::diagonal(&qf.into(), goal)?),
+                    Arc::new(QuadraticTerminal::diagonal(qf.as_slice(), goal)?),
                 )
             }
         };
         let mut problem = Problem::new(x0, dynamics, running, terminal, self.horizon)?;
-        problem.set_control_bounds(self.bounds::<NU>()?);
+        problem.set_control_bounds(self.bounds::<NU>()?)?;
         Ok(problem)
     }
 
     /// The problem and its obstacle constraints for the 4-state models (`"car"`, `"point"`).
-    pub fn car_or_point(&self) -> Result<(Problem<4, 2>, Vec<Arc<dyn Constraint<4, 2>>>)> {
-        let dynamics: Arc<dyn Dynamics<4, 2>> = match self.model.as_str() {
+    pub fn car_or_point(&self) -> Result<(Problem<U4, U2>, Vec<Arc<dyn Constraint<4, 2>>>)> {
+        let dynamics: Arc<dyn Dynamics<U4, U2>> = match self.model.as_str() {
             "car" => Arc::new(Car::new(self.dt)?),
             "point" => Arc::new(DoubleIntegrator2D::new(self.dt)?),
             other => {
@@ -171,7 +172,7 @@ impl BenchmarkProblem {
     }
 
     /// The problem and its obstacle constraints for `"unicycle"`.
-    pub fn unicycle(&self) -> Result<(Problem<3, 2>, Vec<Arc<dyn Constraint<3, 2>>>)> {
+    pub fn unicycle(&self) -> Result<(Problem<U3, U2>, Vec<Arc<dyn Constraint<3, 2>>>)> {
         if self.model != "unicycle" {
             return Err(Error::invalid(
                 "model",

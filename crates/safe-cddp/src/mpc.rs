@@ -28,6 +28,7 @@
 //! # Ok::<(), ddp_core::Error>(())
 //! ```
 
+use nalgebra::Const;
 use std::sync::Arc;
 
 use ddp_core::costs::check_psd;
@@ -114,7 +115,7 @@ pub struct Episode<const NX: usize, const NU: usize> {
 /// Shrinking-horizon Safe-CDDP MPC (Algorithm 1). Owns a problem copy, the solver and the
 /// obstacle trackers; [`Mpc::run_episode`] is deterministic for a seed.
 pub struct Mpc<const NX: usize, const NU: usize> {
-    problem: Problem<NX, NU>,
+    problem: Problem<Const<NX>, Const<NU>>,
     solver: SafeCddpSolver<NX, NU>,
     n_static: usize,
     moving: Vec<MovingObstacle>,
@@ -130,7 +131,7 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
     /// `dt` of [`Mpc::with_obstacle_dt`], default 0.05 s); `tightening`: `None` for plain CDDP;
     /// `sigma_w`: the true process noise of the simulation (symmetric PSD).
     pub fn new(
-        problem: &Problem<NX, NU>,
+        problem: &Problem<Const<NX>, Const<NU>>,
         constraints: Vec<Arc<dyn Constraint<NX, NU>>>,
         moving: Vec<MovingObstacle>,
         settings: Settings,

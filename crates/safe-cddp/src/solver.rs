@@ -47,6 +47,7 @@
 //! | `epsilon` (active set) | [`Settings::active_threshold`] | §III-A |
 //! | `n1`, `n2` | [`crate::mpc::MpcSettings::iterations`], [`crate::Tightening::update_every`] | Alg. 1 |
 
+use nalgebra::Const;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -123,8 +124,8 @@ pub struct SafeCddpSolver<const NX: usize, const NU: usize> {
     us_try: Vec<Vector<NU>>,
     fx: Vec<Matrix<NX, NX>>,
     fu: Vec<Matrix<NX, NU>>,
-    l: Vec<CostDerivatives<NX, NU>>,
-    l_n: TerminalDerivatives<NX>,
+    l: Vec<CostDerivatives<Const<NX>, Const<NU>>>,
+    l_n: TerminalDerivatives<Const<NX>>,
     q_u: Vec<Vector<NU>>,
     q_ux: Vec<Matrix<NU, NX>>,
     q_uu_r: Vec<Matrix<NU, NU>>,
@@ -211,7 +212,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
     /// constraint (from the dynamics of knot 0 around `x0`, unless the constraint states it), and
     /// allocates the workspace (see the type docs).
     pub fn new(
-        problem: &Problem<NX, NU>,
+        problem: &Problem<Const<NX>, Const<NU>>,
         constraints: Vec<Arc<dyn Constraint<NX, NU>>>,
         settings: Settings,
     ) -> Result<Self> {
@@ -523,7 +524,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         self.cost
     }
 
-    fn check_problem(&self, problem: &Problem<NX, NU>) -> Result<()> {
+    fn check_problem(&self, problem: &Problem<Const<NX>, Const<NU>>) -> Result<()> {
         if problem.horizon() < self.n {
             return Err(Error::Shape {
                 field: "problem.horizon".into(),
@@ -551,7 +552,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
     ///
     /// Errors only on bad input (a horizon other than the workspace's); the outcome is
     /// [`Report::status`].
-    pub fn solve(&mut self, problem: &Problem<NX, NU>) -> Result<&Report> {
+    pub fn solve(&mut self, problem: &Problem<Const<NX>, Const<NU>>) -> Result<&Report> {
         let start = Instant::now();
         self.start(problem)?;
         let mut status = Status::MaxIterations;
@@ -625,7 +626,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
     /// Starts a solve: projects the controls onto the bounds, rolls them out from `x0`, evaluates
     /// the cost and the violation, and clears the report. Called by [`SafeCddpSolver::solve`];
     /// call it before driving [`SafeCddpSolver::iterate`] by hand (the MPC does).
-    pub fn start(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
+    pub fn start(&mut self, problem: &Problem<Const<NX>, Const<NU>>) -> Result<()> {
         self.check_problem(problem)?;
         let r = &mut self.report;
         r.log.clear();
@@ -691,7 +692,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
     /// One iteration: linearise (if the trajectory changed), backward pass (raising `mu` until
     /// `Q_uu` is positive definite), forward pass with the per-step QPs and a line search.
     /// Requires [`SafeCddpSolver::start`] first (it is called automatically when needed).
-    pub fn iterate(&mut self, problem: &Problem<NX, NU>) -> Result<IterationOutcome> {
+    pub fn iterate(&mut self, problem: &Problem<Const<NX>, Const<NU>>) -> Result<IterationOutcome> {
         if !self.started {
             self.start(problem)?;
         }
@@ -841,7 +842,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
     /// Constraint tightening (Algorithm 1, lines 23-26): linearises at the current trajectory,
     /// propagates the covariance with eq. (19) and sets every row's margin by eq. (20). Returns
     /// the largest change of a margin. Does nothing (returns 0) without a [`Tightening`].
-    pub fn tighten(&mut self, problem: &Problem<NX, NU>) -> Result<f64> {
+    pub fn tighten(&mut self, problem: &Problem<Const<NX>, Const<NU>>) -> Result<f64> {
         self.check_problem(problem)?;
         let Some(t) = self.tightening else {
             return Ok(0.0);
@@ -912,7 +913,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
 
     /// Phase 1, exposed for benchmarks and custom loops: derivatives of dynamics, costs and
     /// constraint rows along the current trajectory.
-    pub fn linearize(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
+    pub fn linearize(&mut self, problem: &Problem<Const<NX>, Const<NU>>) -> Result<()> {
         self.check_problem(problem)?;
         if !self.started {
             self.start(problem)?;
@@ -923,14 +924,14 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
 
     /// Phase 2: the constrained backward pass with regularisation `mu`; `Ok(false)` when `Q_uu`
     /// was not positive definite at some knot.
-    pub fn backward(&mut self, problem: &Problem<NX, NU>, mu: f64) -> Result<bool> {
+    pub fn backward(&mut self, problem: &Problem<Const<NX>, Const<NU>>, mu: f64) -> Result<bool> {
         self.check_problem(problem)?;
         Ok(self.backward_pass(problem, mu).is_ok())
     }
 
     /// Phase 3: the forward pass with step `alpha` (into scratch buffers, leaving the trajectory
     /// unchanged). Returns the merit of the trial, or the status of the knot whose QP failed.
-    pub fn forward(&mut self, problem: &Problem<NX, NU>, alpha: f64) -> Result<std::result::Result<f64, Status>> {
+    pub fn forward(&mut self, problem: &Problem<Const<NX>, Const<NU>>, alpha: f64) -> Result<std::result::Result<f64, Status>> {
         self.check_problem(problem)?;
         Ok(match self.forward_pass(problem, alpha, false) {
             Forward::Done { merit, .. } => Ok(merit),
@@ -966,7 +967,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         }
     }
 
-    fn finish(&mut self, problem: &Problem<NX, NU>, mut status: Status) {
+    fn finish(&mut self, problem: &Problem<Const<NX>, Const<NU>>, mut status: Status) {
         if self.violation_max > self.settings.constraint_tolerance
             && matches!(status, Status::Converged | Status::MaxIterations)
         {
@@ -987,7 +988,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
 
     /// Largest violation of the original constraints over `x_1 .. x_n` (state rows) and
     /// `(x_k, u_k)` (mixed rows), regardless of the relative degree.
-    fn original_violation(&mut self, _problem: &Problem<NX, NU>) -> f64 {
+    fn original_violation(&mut self, _problem: &Problem<Const<NX>, Const<NU>>) -> f64 {
         let n = self.n;
         let zero_u = Vector::<NU>::zeros();
         let mut worst = 0.0f64;
@@ -1085,15 +1086,15 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
     /// cost alone (no constraint rows, no warm-up penalty) along the current linearisation, with
     /// the controls that sit at a bound clamped (zero rows of `K`, as in box-DDP). Evaluates the
     /// cost derivatives again (the workspace's may hold the warm-up's penalty terms).
-    fn bounds_only_gains(&mut self, problem: &Problem<NX, NU>) {
+    fn bounds_only_gains(&mut self, problem: &Problem<Const<NX>, Const<NU>>) {
         let n = self.n;
-        let mut terminal = TerminalDerivatives::<NX>::default();
+        let mut terminal = TerminalDerivatives::<Const<NX>>::default();
         problem.terminal().add_derivatives(&self.xs[n], 1.0, &mut terminal);
         let mut v_xx = terminal.lxx;
         let bounds = problem.bounds();
         for k in (0..n).rev() {
             let knot = &problem.knots()[k];
-            let mut l = CostDerivatives::<NX, NU>::default();
+            let mut l = CostDerivatives::<Const<NX>, Const<NU>>::default();
             knot.cost.add_derivatives(&self.xs[k], &self.us[k], 1.0, &mut l);
             let (fx, fu) = (&self.fx[k], &self.fu[k]);
             let v_fx = v_xx * fx;
@@ -1170,7 +1171,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
     /// inner solve converged (rather than hitting `al_inner_iterations`). Returns whether the
     /// warm-up itself has converged, which counts only after a failed KKT/QP iteration in this
     /// solve: the inner solve converged on a trajectory within `constraint_tolerance`.
-    fn update_multipliers(&mut self, problem: &Problem<NX, NU>, inner_done: bool) -> bool {
+    fn update_multipliers(&mut self, problem: &Problem<Const<NX>, Const<NU>>, inner_done: bool) -> bool {
         if self.need_linearize {
             self.linearize_now(problem);
         }
@@ -1210,7 +1211,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         converged
     }
 
-    fn linearize_now(&mut self, problem: &Problem<NX, NU>) {
+    fn linearize_now(&mut self, problem: &Problem<Const<NX>, Const<NU>>) {
         let n = self.n;
         let knots = &problem.knots()[..n];
         for (k, knot) in knots.iter().enumerate() {
@@ -1303,7 +1304,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
 
     /// Adds the warm-up's augmented-Lagrangian terms of every constraint row to the cost
     /// derivatives at the row's own time (state rows at `x_t`, mixed rows at `(x_k, u_k)`).
-    fn add_al_derivatives(&mut self, _problem: &Problem<NX, NU>) {
+    fn add_al_derivatives(&mut self, _problem: &Problem<Const<NX>, Const<NU>>) {
         let n = self.n;
         let rho = self.al_rho;
         let zero_u = Vector::<NU>::zeros();
@@ -1358,7 +1359,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         }
     }
 
-    fn backward_pass(&mut self, problem: &Problem<NX, NU>, mu: f64) -> std::result::Result<(), NotPositiveDefinite> {
+    fn backward_pass(&mut self, problem: &Problem<Const<NX>, Const<NU>>, mu: f64) -> std::result::Result<(), NotPositiveDefinite> {
         let n = self.n;
         let m = self.m;
         let ddp = self.settings.method == Method::Ddp;
@@ -1508,7 +1509,7 @@ impl<const NX: usize, const NU: usize> SafeCddpSolver<NX, NU> {
         Ok(())
     }
 
-    fn forward_pass(&mut self, problem: &Problem<NX, NU>, alpha: f64, elastic: bool) -> Forward {
+    fn forward_pass(&mut self, problem: &Problem<Const<NX>, Const<NU>>, alpha: f64, elastic: bool) -> Forward {
         let n = self.n;
         let m = self.m;
         let bounds = problem.bounds();
@@ -1620,7 +1621,7 @@ fn schur_ok<const NU: usize>(cw: &Matrix<NU, NU>, hw: &Matrix<NU, NU>, m: usize)
 /// the zero-control rollout of knot 0's dynamics from a slightly perturbed `x0` (so that symmetric
 /// points such as a car at rest do not hide a dependence).
 fn relative_degree<const NX: usize, const NU: usize>(
-    problem: &Problem<NX, NU>,
+    problem: &Problem<Const<NX>, Const<NU>>,
     c: &dyn Constraint<NX, NU>,
     index: usize,
     max_degree: usize,

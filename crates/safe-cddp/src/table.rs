@@ -28,6 +28,7 @@
 //! # Ok::<(), ddp_core::Error>(())
 //! ```
 
+use nalgebra::Const;
 use std::sync::Arc;
 
 use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
@@ -121,7 +122,7 @@ pub struct Scenario<const NX: usize, const NU: usize> {
     /// Which robot.
     pub robot: Robot,
     /// The deterministic problem (initial state, dynamics, cost, control box, horizon).
-    pub problem: Problem<NX, NU>,
+    pub problem: Problem<Const<NX>, Const<NU>>,
     /// The obstacles as constraint rows.
     pub constraints: Vec<Arc<dyn Constraint<NX, NU>>>,
     /// The obstacles for collision counting and figures.
@@ -177,7 +178,7 @@ fn mpc_settings<const NX: usize>(goal: Vector<NX>, goal_indices: Vec<usize>, rad
 }
 
 fn lqr_at<const NX: usize, const NU: usize>(
-    dynamics: &dyn Dynamics<NX, NU>,
+    dynamics: &dyn Dynamics<Const<NX>, Const<NU>>,
     x: &Vector<NX>,
     u: &Vector<NU>,
     q: &[f64; NX],
@@ -228,7 +229,7 @@ pub fn point_robot(noise: f64) -> Result<Scenario<4, 2>> {
         Arc::new(QuadraticTerminal::diagonal(&qf, goal)?),
         100,
     )?
-    .with_control_bounds(ControlBounds::new(Vector::repeat(-0.8), Vector::repeat(0.8))?);
+    .with_control_bounds(ControlBounds::new(Vector::repeat(-0.8), Vector::repeat(0.8))?)?;
     let (constraints, obstacles) = circles([[1.0, 1.1, 0.4], [2.0, 1.9, 0.4], [2.6, 2.9, 0.25]].as_slice())?;
     let s2 = noise * noise;
     Ok(Scenario {
@@ -270,7 +271,7 @@ pub fn car(noise: f64) -> Result<Scenario<4, 2>> {
     .with_control_bounds(ControlBounds::new(
         Vector::<2>::new(-0.4, -0.5),
         Vector::<2>::new(0.4, 0.5),
-    )?);
+    )?)?;
     let (constraints, obstacles) = circles([[1.3, 0.28, 0.3], [2.7, -0.28, 0.3]].as_slice())?;
     let s2 = noise * noise;
     Ok(Scenario {
@@ -312,7 +313,7 @@ pub fn quadrotor(noise: f64) -> Result<Scenario<12, 4>> {
     .with_control_bounds(ControlBounds::new(
         Vector::<4>::new(0.0, -0.05, -0.05, -0.02),
         Vector::<4>::new(2.0 * hover[0], 0.05, 0.05, 0.02),
-    )?);
+    )?)?;
     let cylinders = [[1.0, 0.05, 0.25, 3.0], [2.0, 0.0, 0.3, 1.38]];
     let mut constraints: Vec<Arc<dyn Constraint<12, 4>>> = Vec::new();
     let mut obstacles = Vec::new();

@@ -1,5 +1,6 @@
 //! Covariance propagation (eq. 19) and tightening (eq. 20).
 
+use nalgebra::{U2, U4};
 use std::sync::Arc;
 
 use ddp_core::{reference, Dynamics, Matrix, Vector};
@@ -17,7 +18,7 @@ fn sigma_w() -> Matrix<4, 4> {
 }
 
 /// Solves P3's double integrator (no obstacles) and tightens: covariances with closed-loop gains.
-fn solved_point() -> (ddp_core::Problem<4, 2>, SafeCddpSolver<4, 2>) {
+fn solved_point() -> (ddp_core::Problem<U4, U2>, SafeCddpSolver<4, 2>) {
     let problem = reference::point_reach();
     let mut solver = SafeCddpSolver::new(&problem, vec![], Settings::default()).unwrap();
     solver.set_tightening(Some(Tightening::new(0.95, sigma_w()).unwrap()));
@@ -179,7 +180,7 @@ proptest! {
 }
 
 /// The car of the iteration benchmark: N = 90, goal (3, 0) at rest, two discs (squared form).
-fn car_n90() -> (ddp_core::Problem<4, 2>, Vec<Arc<dyn Constraint<4, 2>>>) {
+fn car_n90() -> (ddp_core::Problem<U4, U2>, Vec<Arc<dyn Constraint<4, 2>>>) {
     use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
     use ddp_core::models::Car;
     use ddp_core::{ControlBounds, Problem};
@@ -195,7 +196,7 @@ fn car_n90() -> (ddp_core::Problem<4, 2>, Vec<Arc<dyn Constraint<4, 2>>>) {
         90,
     )
     .unwrap()
-    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap());
+    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap()).unwrap();
     let obstacles: Vec<Arc<dyn Constraint<4, 2>>> = vec![
         Arc::new(Circle::squared([1.0, 0.1], 0.35, [0, 1]).unwrap()),
         Arc::new(Circle::squared([2.0, -0.1], 0.35, [0, 1]).unwrap()),

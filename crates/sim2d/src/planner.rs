@@ -43,6 +43,7 @@
 //! `subgoal_v_min` (-0.5 m/s: DDPEN may back out of a pocket), `subgoal_model` (`None`: the
 //! shipped weights).
 
+use ddp_core::dims::{U2, U3};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -293,8 +294,8 @@ impl std::fmt::Display for PlannerKind {
 pub struct DdpPlanner {
     params: DdpParams,
     dynamics: Arc<Unicycle>,
-    bounds: ControlBounds<2>,
-    solver: Solver<3, 2>,
+    bounds: ControlBounds<U2>,
+    solver: Solver<U3, U2>,
     settings: Settings,
     subgoals: Vec<[f64; 2]>,
     started: bool,
@@ -390,11 +391,11 @@ impl DdpPlanner {
         }
     }
 
-    fn build_problem(&self, request: &PlanRequest<'_>) -> Result<Problem<3, 2>> {
+    fn build_problem(&self, request: &PlanRequest<'_>) -> Result<Problem<U3, U2>> {
         let p = &self.params;
         let goal = SmoothDistance::<3>::goal(request.goal, [0, 1], p.eps, 1.0)?;
         let hinge = DistanceFieldHinge::<3>::new(request.perception.field().clone(), p.margin, [0, 1], 1.0)?;
-        let mut running = CostSum::<3, 2>::new()
+        let mut running = CostSum::<U3, U2>::new()
             .with(p.w_control, Arc::new(ControlSquared::new(1.0)?))
             .with(p.w_goal, Arc::new(StateOnly(goal)))
             .with(p.w_obstacle, Arc::new(StateOnly(hinge.clone())));
@@ -412,7 +413,7 @@ impl DdpPlanner {
                 Arc::new(StateOnly(SmoothDistance::<3>::sub_goal(*s, [0, 1], p.eps, 1.0)?)),
             )?;
         }
-        let mut terminal = TerminalSum::<3>::new()
+        let mut terminal = TerminalSum::<U3>::new()
             .with(p.w_goal_terminal, Arc::new(goal))
             .with(p.w_obstacle, Arc::new(hinge));
         if let Some(wall) = wall {
@@ -421,12 +422,12 @@ impl DdpPlanner {
         let x0 = Vector::<3>::new(request.state[0], request.state[1], request.state[2]);
         Ok(Problem::new(
             x0,
-            self.dynamics.clone() as Arc<dyn Dynamics<3, 2>>,
+            self.dynamics.clone() as Arc<dyn Dynamics<U3, U2>>,
             Arc::new(running),
             Arc::new(terminal),
             p.horizon,
         )?
-        .with_control_bounds(self.bounds))
+        .with_control_bounds(self.bounds.clone())?)
     }
 
     /// One cycle from the current initial guess: `epochs` solves of one iteration each.
@@ -440,7 +441,7 @@ impl DdpPlanner {
             self.solver.set_settings(settings)?;
             let report = self.solver.solve(&problem)?;
             // Carry the regularisation across epochs, as one solve would.
-            settings.mu_init = report.mu;
+            settings.regularization.mu_init = report.mu;
             self.plan.cost = report.cost;
             self.plan.status = Some(report.status);
             self.plan.epoch_seconds.push(t.elapsed().as_secs_f64());

@@ -40,6 +40,7 @@
 //! Episode `seed` meets the same actuation and localisation noise under both controllers
 //! (common random numbers), and a run is deterministic for its seed.
 
+use ddp_core::dims::{U2, U3};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -319,7 +320,7 @@ impl TurtlebotConfig {
     }
 
     /// The deterministic optimal-control problem from the start pose (horizon `N`, wheel-speed box).
-    pub fn problem(&self) -> Result<Problem<3, 2>> {
+    pub fn problem(&self) -> Result<Problem<U3, U2>> {
         let model = DifferentialDrive::new(self.dt, self.track_width)?;
         let r = self.control_weight;
         let running = QuadraticCost::diagonal(&[0.0; 3], &[r, r], Vector::zeros(), Vector::zeros())?;
@@ -334,7 +335,7 @@ impl TurtlebotConfig {
             Arc::new(terminal),
             self.horizon,
         )?
-        .with_control_bounds(bounds))
+        .with_control_bounds(bounds)?)
     }
 
     /// The constraint rows: each disc grown by [`TurtlebotConfig::inflation`], distance form
@@ -446,7 +447,7 @@ fn wrap_near(angle: f64, reference: f64) -> f64 {
 
 /// `n` iterations of Algorithm 1's inner loop (lines 3-26); returns whether an iteration
 /// reported an infeasible QP or trajectory.
-fn iterate(solver: &mut SafeCddpSolver<3, 2>, problem: &Problem<3, 2>, n: usize) -> Result<bool> {
+fn iterate(solver: &mut SafeCddpSolver<3, 2>, problem: &Problem<U3, U2>, n: usize) -> Result<bool> {
     let tightening = solver.tightening().copied();
     let mut infeasible = false;
     // The first KKT/QP iteration of a step tightens (iter % n2 == 0), then every n2.

@@ -1,6 +1,7 @@
 //! DDPEN in the loop: the A* oracle's sub-goals, the sub-goal cost's derivatives, a small trap
 //! that DDPEN (oracle) escapes and DDP does not, the trap-map generator, and input errors.
 
+use ddp_core::dims::{U2, U3};
 use std::sync::Arc;
 
 use ddp_core::costs::{CostSum, SmoothDistance, StateOnly};
@@ -196,7 +197,7 @@ fn subgoal_cost_derivatives_match_finite_differences() {
     // The running cost of eq. (8) restricted to its sub-goal part, sum_k w_s c_s(x, x_s^k)
     // (eq. 9), on the unicycle state, plus a control term.
     let subgoals = [[1.0, 0.5], [2.0, -0.3], [0.2, 0.1]];
-    let mut cost = CostSum::<3, 2>::new().with(0.1, Arc::new(ddp_core::costs::ControlSquared::new(1.0).unwrap()));
+    let mut cost = CostSum::<U3, U2>::new().with(0.1, Arc::new(ddp_core::costs::ControlSquared::new(1.0).unwrap()));
     for s in subgoals {
         cost.push(
             0.7,
@@ -206,7 +207,7 @@ fn subgoal_cost_derivatives_match_finite_differences() {
     }
     let h = 1e-5;
     let grad = |x: &Vector<3>, u: &Vector<2>| {
-        let mut d = CostDerivatives::<3, 2>::default();
+        let mut d = CostDerivatives::<U3, U2>::default();
         cost.add_derivatives(x, u, 1.0, &mut d);
         d
     };
@@ -239,7 +240,7 @@ fn subgoal_cost_derivatives_match_finite_differences() {
         }
         // One sub-goal term as a terminal cost.
         let t = SmoothDistance::<3>::sub_goal(subgoals[0], [0, 1], 0.05, 1.0).unwrap();
-        let mut td = TerminalDerivatives::<3>::default();
+        let mut td = TerminalDerivatives::<U3>::default();
         t.add_derivatives(&x, 1.0, &mut td);
         for i in 0..2 {
             let (mut xp, mut xm) = (x, x);

@@ -18,6 +18,7 @@
 //! `w` cannot, whatever the depth). It adds the Gauss-Newton Hessian `2 w grad dist grad dist^T`
 //! (PSD) with its gradient `-2 w ReLU(d - dist) grad dist`.
 
+use nalgebra::Const;
 use std::sync::Arc;
 
 use ddp_core::{Error, Result, TerminalCost, TerminalDerivatives, Vector};
@@ -89,7 +90,7 @@ impl<const NX: usize> DistanceFieldHinge<NX> {
     }
 }
 
-impl<const NX: usize> TerminalCost<NX> for DistanceFieldHinge<NX> {
+impl<const NX: usize> TerminalCost<Const<NX>> for DistanceFieldHinge<NX> {
     #[inline]
     fn value(&self, x: &Vector<NX>) -> f64 {
         let [i, j] = self.indices;
@@ -99,7 +100,7 @@ impl<const NX: usize> TerminalCost<NX> for DistanceFieldHinge<NX> {
     }
 
     #[inline]
-    fn add_derivatives(&self, x: &Vector<NX>, w: f64, der: &mut TerminalDerivatives<NX>) -> f64 {
+    fn add_derivatives(&self, x: &Vector<NX>, w: f64, der: &mut TerminalDerivatives<Const<NX>>) -> f64 {
         let [i, j] = self.indices;
         let (d, g) = self.field.sample([x[i], x[j]]);
         if d >= self.margin {
@@ -171,7 +172,7 @@ mod tests {
         let h = 1e-6;
         for _ in 0..200 {
             let x = Vector::<3>::new(rng.random_range(-1.5..1.5), rng.random_range(-0.5..1.5), 0.0);
-            let mut d = TerminalDerivatives::<3>::default();
+            let mut d = TerminalDerivatives::<Const<3>>::default();
             let v = hinge.add_derivatives(&x, 1.5, &mut d);
             assert!((v - 1.5 * hinge.value(&x)).abs() < 1e-12);
             for k in 0..2 {
@@ -203,7 +204,7 @@ mod tests {
             let x = Vector::<3>::new(rng.random_range(-1.5..1.5), rng.random_range(-0.5..1.5), 0.2);
             let depth = lin.value(&x);
             assert!((sq.value(&x) - 3.0 * depth * depth).abs() < 1e-12);
-            let mut d = TerminalDerivatives::<3>::default();
+            let mut d = TerminalDerivatives::<Const<3>>::default();
             let v = sq.add_derivatives(&x, 0.5, &mut d);
             assert!((v - 0.5 * sq.value(&x)).abs() < 1e-12);
             if depth == 0.0 {

@@ -1,5 +1,6 @@
 //! Planar free-floating base (a small satellite) carrying a 2-link arm.
 
+use nalgebra::{U10, U5};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Error, Matrix, Result, Vector};
 
@@ -460,7 +461,7 @@ impl Default for ArmBase {
     }
 }
 
-impl Dynamics<10, 5> for ArmBase {
+impl Dynamics<U10, U5> for ArmBase {
     #[inline]
     fn step(&self, x: &Vector<10>, u: &Vector<5>) -> Vector<10> {
         let dt = self.params.dt;

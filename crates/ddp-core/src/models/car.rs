@@ -1,5 +1,6 @@
 //! Kinematic car with a speed state.
 
+use nalgebra::{U2, U4};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 
@@ -38,7 +39,7 @@ impl Default for Car {
     }
 }
 
-impl Dynamics<4, 2> for Car {
+impl Dynamics<U4, U2> for Car {
     #[inline]
     fn step(&self, x: &Vector<4>, u: &Vector<2>) -> Vector<4> {
         let (s, c) = x[2].sin_cos();

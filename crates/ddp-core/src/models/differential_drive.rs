@@ -1,5 +1,6 @@
 //! Differential-drive robot commanded by its wheel speeds.
 
+use nalgebra::{U2, U3};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 
@@ -67,7 +68,7 @@ impl Default for DifferentialDrive {
     }
 }
 
-impl Dynamics<3, 2> for DifferentialDrive {
+impl Dynamics<U3, U2> for DifferentialDrive {
     #[inline]
     fn step(&self, x: &Vector<3>, u: &Vector<2>) -> Vector<3> {
         let dt = self.dt;

@@ -1,5 +1,6 @@
 //! Planar point mass driven by its acceleration.
 
+use nalgebra::{U2, U4};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 
@@ -41,7 +42,7 @@ impl Default for DoubleIntegrator2D {
     }
 }
 
-impl Dynamics<4, 2> for DoubleIntegrator2D {
+impl Dynamics<U4, U2> for DoubleIntegrator2D {
     #[inline]
     fn step(&self, x: &Vector<4>, u: &Vector<2>) -> Vector<4> {
         let dt = self.dt;

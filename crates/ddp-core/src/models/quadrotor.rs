@@ -1,5 +1,6 @@
 //! Rigid-body quadrotor with ZYX Euler angles.
 
+use nalgebra::{U12, U4};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 
@@ -144,7 +145,7 @@ impl Trig {
     }
 }
 
-impl Dynamics<12, 4> for Quadrotor {
+impl Dynamics<U12, U4> for Quadrotor {
     #[inline]
     fn step(&self, x: &Vector<12>, u: &Vector<4>) -> Vector<12> {
         let dt = self.dt;

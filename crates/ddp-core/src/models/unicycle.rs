@@ -1,5 +1,6 @@
 //! Kinematic unicycle driven by its speed and turn rate.
 
+use nalgebra::{U2, U3};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 
@@ -41,7 +42,7 @@ impl Default for Unicycle {
     }
 }
 
-impl Dynamics<3, 2> for Unicycle {
+impl Dynamics<U3, U2> for Unicycle {
     #[inline]
     fn step(&self, x: &Vector<3>, u: &Vector<2>) -> Vector<3> {
         let (s, c) = x[2].sin_cos();

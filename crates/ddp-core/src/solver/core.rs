@@ -1,0 +1,881 @@
+//! The one DDP core that every solver of ddpkit is built from.
+//!
+//! It owns the steps that do not depend on how a variant treats constraints: rolling out, the
+//! linearisation along a trajectory, the Q blocks of Tassa et al. (2012) with the full-DDP
+//! second-order terms, the regularisation and its schedule, the value-function update, the
+//! expected improvement and the line search. A variant supplies its gains through [`Gains`]
+//! (as Crocoddyl's BoxDDP overrides `computeGains`): [`FreeGains`] (iLQR / DDP), [`BoxGains`]
+//! (box-DDP, Tassa, Mansard and Todorov 2014), [`ClampedGains`] (a fixed active set of control
+//! bounds), and Safe-CDDP's active-set KKT gains (Xie et al. 2017) in the `safe-cddp` crate.
+//!
+//! | symbol | field | equation (Tassa et al. 2012) |
+//! |---|---|---|
+//! | `Q_x, Q_u, Q_xx, Q_uu, Q_ux` | [`QBlocks`] `q_x, q_u, q_xx, q_uu, q_ux` | (5) |
+//! | `Q_uu + mu I`, `Q_ux` (regularised) | `q_uu_r`, `q_ux_r` | (10) |
+//! | `k, K` | [`Policy`] `k_ff`, `k_fb` | (6) |
+//! | `V_x, V_xx` | [`ValueFunction`] `v_x`, `v_xx` | (11) |
+//! | `Delta V(alpha)` | [`Expected`] `dv1`, `dv2` | (13) |
+//! | `mu, Delta` | [`MuSchedule`] `mu`, `dmu` | §II-F |
+//!
+//! Every buffer is allocated by the constructors; the steps allocate nothing for compile-time
+//! sizes and, except box-DDP's QP and full DDP's definiteness fallback, nothing for run-time
+//! sizes either.
+
+use crate::boxqp::box_qp;
+use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
+use crate::kernels::{
+    cholesky_in_place, cholesky_solve_in_place, mul_to, mul_vec_add, sym_tr_mul2_add, sym_tr_mul_add, tr_mul_add,
+    tr_mul_vec_add,
+};
+use crate::solver::settings::{LineSearchSettings, Method, Regularization, RegularizationSettings};
+use crate::{ControlBounds, CostDerivatives, Problem, TerminalDerivatives};
+
+/// A backward pass met a `Q_uu` (or KKT matrix) that is not positive definite.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NotPositiveDefinite;
+
+/// The nominal trajectory `(xs, us)` and the trial of the line search.
+#[derive(Debug, Clone)]
+pub struct Trajectory<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// `x_0 .. x_N`
+    pub xs: Vec<VectorN<NX>>,
+    /// `u_0 .. u_{N-1}`
+    pub us: Vec<VectorN<NU>>,
+    /// Trial states.
+    pub xs_try: Vec<VectorN<NX>>,
+    /// Trial controls.
+    pub us_try: Vec<VectorN<NU>>,
+}
+
+impl<NX: Dim, NU: Dim> Trajectory<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Zero trajectories of `n` knots.
+    pub fn new(dims: Dims<NX, NU>, n: usize) -> Self {
+        Self {
+            xs: vec![dims.x_zeros(); n + 1],
+            us: vec![dims.u_zeros(); n],
+            xs_try: vec![dims.x_zeros(); n + 1],
+            us_try: vec![dims.u_zeros(); n],
+        }
+    }
+    /// Makes the trial the nominal trajectory (a swap, no copy).
+    pub fn accept_trial(&mut self) {
+        std::mem::swap(&mut self.xs, &mut self.xs_try);
+        std::mem::swap(&mut self.us, &mut self.us_try);
+    }
+}
+
+/// Derivatives of dynamics and costs along a trajectory.
+#[derive(Debug, Clone)]
+pub struct Linearization<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// `f_x` per knot.
+    pub fx: Vec<MatrixN<NX, NX>>,
+    /// `f_u` per knot.
+    pub fu: Vec<MatrixN<NX, NU>>,
+    /// Running-cost derivatives per knot.
+    pub l: Vec<CostDerivatives<NX, NU>>,
+    /// Terminal-cost derivatives.
+    pub l_n: TerminalDerivatives<NX>,
+}
+
+impl<NX: Dim, NU: Dim> Linearization<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Zero derivatives for `n` knots.
+    pub fn new(dims: Dims<NX, NU>, n: usize) -> Self {
+        Self {
+            fx: vec![dims.xx_zeros(); n],
+            fu: vec![dims.xu_zeros(); n],
+            l: vec![CostDerivatives::zeros(dims); n],
+            l_n: TerminalDerivatives::zeros(dims.nx),
+        }
+    }
+
+    /// Derivatives of the first `n` knots' dynamics and costs and of the terminal cost along
+    /// `(xs, us)`.
+    #[inline(never)]
+    pub fn compute(&mut self, problem: &Problem<NX, NU>, xs: &[VectorN<NX>], us: &[VectorN<NU>], n: usize) {
+        for (k, knot) in problem.knots()[..n].iter().enumerate() {
+            let (x, u) = (&xs[k], &us[k]);
+            knot.dynamics.jacobians(x, u, &mut self.fx[k], &mut self.fu[k]);
+            let l = &mut self.l[k];
+            l.clear();
+            knot.cost.add_derivatives(x, u, 1.0, l);
+        }
+        self.cost_terminal(problem, &xs[n]);
+    }
+
+    /// Only the running and terminal cost derivatives (the dynamics' are kept).
+    pub fn compute_costs(&mut self, problem: &Problem<NX, NU>, xs: &[VectorN<NX>], us: &[VectorN<NU>], n: usize) {
+        for (k, knot) in problem.knots()[..n].iter().enumerate() {
+            let l = &mut self.l[k];
+            l.clear();
+            knot.cost.add_derivatives(&xs[k], &us[k], 1.0, l);
+        }
+        self.cost_terminal(problem, &xs[n]);
+    }
+
+    fn cost_terminal(&mut self, problem: &Problem<NX, NU>, x_n: &VectorN<NX>) {
+        self.l_n.clear();
+        problem.terminal().add_derivatives(x_n, 1.0, &mut self.l_n);
+    }
+}
+
+/// The affine policy `du = k + K dx` of a backward pass.
+#[derive(Debug, Clone)]
+pub struct Policy<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Feed-forward terms `k`.
+    pub k_ff: Vec<VectorN<NU>>,
+    /// Feedback gains `K`.
+    pub k_fb: Vec<MatrixN<NU, NX>>,
+}
+
+impl<NX: Dim, NU: Dim> Policy<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Zero policy of `n` knots.
+    pub fn new(dims: Dims<NX, NU>, n: usize) -> Self {
+        Self {
+            k_ff: vec![dims.u_zeros(); n],
+            k_fb: vec![dims.ux_zeros(); n],
+        }
+    }
+    /// Zeros every term.
+    pub fn clear(&mut self) {
+        self.k_ff.iter_mut().for_each(|k| k.fill(0.0));
+        self.k_fb.iter_mut().for_each(|k| k.fill(0.0));
+    }
+}
+
+/// `V_x`, `V_xx` along the trajectory (`N + 1` entries).
+#[derive(Debug, Clone)]
+pub struct ValueFunction<NX: Dim>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    /// `V_x`
+    pub v_x: Vec<VectorN<NX>>,
+    /// `V_xx`
+    pub v_xx: Vec<MatrixN<NX, NX>>,
+}
+
+impl<NX: Dim> ValueFunction<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    /// Zero value function of `n` knots.
+    pub fn new(nx: NX, n: usize) -> Self {
+        Self {
+            v_x: vec![VectorN::zeros_generic(nx, nalgebra::U1); n + 1],
+            v_xx: vec![MatrixN::zeros_generic(nx, nx); n + 1],
+        }
+    }
+}
+
+/// The Q blocks of the knot being processed, and the scratch of the backward pass.
+#[derive(Debug, Clone)]
+pub struct QBlocks<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// `Q_x`
+    pub q_x: VectorN<NX>,
+    /// `Q_u`
+    pub q_u: VectorN<NU>,
+    /// `Q_xx`
+    pub q_xx: MatrixN<NX, NX>,
+    /// `Q_uu`
+    pub q_uu: MatrixN<NU, NU>,
+    /// `Q_ux`
+    pub q_ux: MatrixN<NU, NX>,
+    /// Regularised `Q_uu` (symmetrised).
+    pub q_uu_r: MatrixN<NU, NU>,
+    /// Regularised `Q_ux`.
+    pub q_ux_r: MatrixN<NU, NX>,
+    /// Scratch for a gains step: the Cholesky factor of `q_uu_r` after [`QBlocks::factor`].
+    pub chol: MatrixN<NU, NU>,
+    /// Scratch for a gains step (`NU`).
+    pub t_u: VectorN<NU>,
+    /// Scratch for a gains step (`NU x NX`).
+    pub t_ux: MatrixN<NU, NX>,
+    t_x: VectorN<NX>,
+    v_xx_fx: MatrixN<NX, NX>,
+    v_xx_fu: MatrixN<NX, NU>,
+    g_xx: MatrixN<NX, NX>,
+    g_uu: MatrixN<NU, NU>,
+    g_ux: MatrixN<NU, NX>,
+    m_k: VectorN<NU>,
+    m_kk: MatrixN<NU, NX>,
+}
+
+impl<NX: Dim, NU: Dim> QBlocks<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Zero blocks.
+    pub fn new(dims: Dims<NX, NU>) -> Self {
+        Self {
+            q_x: dims.x_zeros(),
+            q_u: dims.u_zeros(),
+            q_xx: dims.xx_zeros(),
+            q_uu: dims.uu_zeros(),
+            q_ux: dims.ux_zeros(),
+            q_uu_r: dims.uu_zeros(),
+            q_ux_r: dims.ux_zeros(),
+            chol: dims.uu_zeros(),
+            t_u: dims.u_zeros(),
+            t_ux: dims.ux_zeros(),
+            t_x: dims.x_zeros(),
+            v_xx_fx: dims.xx_zeros(),
+            v_xx_fu: dims.xu_zeros(),
+            g_xx: dims.xx_zeros(),
+            g_uu: dims.uu_zeros(),
+            g_ux: dims.ux_zeros(),
+            m_k: dims.u_zeros(),
+            m_kk: dims.ux_zeros(),
+        }
+    }
+
+    /// Factors `q_uu_r` into `chol` (lower triangle); `Err` when not positive definite.
+    #[inline(always)]
+    pub fn factor(&mut self) -> Result<(), NotPositiveDefinite> {
+        self.chol.copy_from(&self.q_uu_r);
+        if cholesky_in_place(&mut self.chol) {
+            Ok(())
+        } else {
+            Err(NotPositiveDefinite)
+        }
+    }
+
+    /// The unconstrained Newton step after [`QBlocks::factor`]: `k = -Q_uu^-1 Q_u`,
+    /// `K = -Q_uu^-1 Q_ux` (regularised).
+    #[inline(always)]
+    pub fn newton_step(&self, k_ff: &mut VectorN<NU>, k_fb: &mut MatrixN<NU, NX>) {
+        k_ff.copy_from(&self.q_u);
+        cholesky_solve_in_place(&self.chol, k_ff);
+        k_ff.neg_mut();
+        k_fb.copy_from(&self.q_ux_r);
+        cholesky_solve_in_place(&self.chol, k_fb);
+        k_fb.neg_mut();
+    }
+}
+
+/// What a gains step reports for its knot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GainsInfo {
+    /// Contribution to the stationarity measure (`|Q_u|^2` over the free controls, or of the
+    /// projected gradient).
+    pub gradient: f64,
+    /// The gains solve `(Q_uu + mu I) [k K] = -[Q_u Q_ux]` exactly (no active constraint), so the
+    /// value update may use its collapsed form.
+    pub exact: bool,
+}
+
+/// The step a variant solver overrides: its gains at one knot from the Q blocks (Crocoddyl's
+/// `computeGains`), and optionally curvature it adds to `Q_xx`.
+pub trait Gains<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Writes `k_ff`, `k_fb` at knot `k` (they hold the previous pass's values, a warm start)
+    /// from `q` (`q_uu_r`, `q_ux_r` regularised) and the nominal control `u`.
+    fn compute(
+        &mut self,
+        k: usize,
+        q: &mut QBlocks<NX, NU>,
+        u: &VectorN<NU>,
+        k_ff: &mut VectorN<NU>,
+        k_fb: &mut MatrixN<NU, NX>,
+    ) -> Result<GainsInfo, NotPositiveDefinite>;
+
+    /// Adds curvature to `Q_xx` of knot `k`, or to `V_xx` at `k = N` (constraint Hessians).
+    fn add_curvature(&self, _k: usize, _q_xx: &mut MatrixN<NX, NX>) {}
+}
+
+/// Unconstrained gains (iLQR and full DDP): the Newton step of the regularised Q block.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FreeGains;
+
+impl<NX: Dim, NU: Dim> Gains<NX, NU> for FreeGains
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    #[inline(always)]
+    fn compute(
+        &mut self,
+        _k: usize,
+        q: &mut QBlocks<NX, NU>,
+        _u: &VectorN<NU>,
+        k_ff: &mut VectorN<NU>,
+        k_fb: &mut MatrixN<NU, NX>,
+    ) -> Result<GainsInfo, NotPositiveDefinite> {
+        q.factor()?;
+        q.newton_step(k_ff, k_fb);
+        Ok(GainsInfo {
+            gradient: q.q_u.norm_squared(),
+            exact: true,
+        })
+    }
+}
+
+/// Box-DDP gains (Tassa, Mansard and Todorov 2014): `k` from the box QP on `u + k`, `K` on the
+/// free controls only (clamped rows zero).
+#[derive(Debug, Clone, Copy)]
+pub struct BoxGains<'a, NU: Dim>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    /// The control bounds.
+    pub bounds: &'a ControlBounds<NU>,
+    /// Iteration limit of the QP.
+    pub iterations: usize,
+}
+
+impl<NX: Dim, NU: Dim> Gains<NX, NU> for BoxGains<'_, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn compute(
+        &mut self,
+        _k: usize,
+        q: &mut QBlocks<NX, NU>,
+        u: &VectorN<NU>,
+        k_ff: &mut VectorN<NU>,
+        k_fb: &mut MatrixN<NU, NX>,
+    ) -> Result<GainsInfo, NotPositiveDefinite> {
+        let b = self.bounds;
+        let qp = box_qp(&q.q_uu_r, &q.q_u, &(&b.lower - u), &(&b.upper - u), k_ff, self.iterations);
+        let chol = qp.chol.ok_or(NotPositiveDefinite)?;
+        k_fb.fill(0.0);
+        let mut grad = 0.0;
+        if qp.free.iter().any(|&f| f) {
+            for i in 0..u.len() {
+                for j in 0..q.q_ux_r.ncols() {
+                    k_fb[(i, j)] = if qp.free[i] { -q.q_ux_r[(i, j)] } else { 0.0 };
+                }
+            }
+            chol.solve_mut(k_fb);
+        }
+        // Stationarity is measured on the free controls only: a clamped one may keep a gradient
+        // that pushes into its bound.
+        for i in 0..u.len() {
+            if qp.free[i] {
+                grad += q.q_u[i] * q.q_u[i];
+            }
+        }
+        k_ff.copy_from(&qp.x);
+        Ok(GainsInfo {
+            gradient: grad,
+            exact: false,
+        })
+    }
+}
+
+/// Gains with a fixed active set of control bounds: the controls that sit at a bound get no
+/// feedback (zero rows of `K`), the others the Newton step of the free block; `k = 0`. Used by
+/// Safe-CDDP's closed-loop covariance propagation (the bounds-only Riccati recursion).
+#[derive(Debug, Clone, Copy)]
+pub struct ClampedGains<'a, NU: Dim>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    /// The control bounds (`None`: every control free).
+    pub bounds: Option<&'a ControlBounds<NU>>,
+}
+
+impl<NX: Dim, NU: Dim> Gains<NX, NU> for ClampedGains<'_, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn compute(
+        &mut self,
+        _k: usize,
+        q: &mut QBlocks<NX, NU>,
+        u: &VectorN<NU>,
+        k_ff: &mut VectorN<NU>,
+        k_fb: &mut MatrixN<NU, NX>,
+    ) -> Result<GainsInfo, NotPositiveDefinite> {
+        if let Some(b) = self.bounds {
+            for i in 0..u.len() {
+                let tol = 1e-9 * (1.0 + u[i].abs());
+                if u[i] >= b.upper[i] - tol || u[i] <= b.lower[i] + tol {
+                    // Clamped: no feedback through this control.
+                    for j in 0..u.len() {
+                        q.q_uu_r[(i, j)] = 0.0;
+                        q.q_uu_r[(j, i)] = 0.0;
+                    }
+                    q.q_uu_r[(i, i)] = 1.0;
+                    for j in 0..q.q_ux_r.ncols() {
+                        q.q_ux_r[(i, j)] = 0.0;
+                    }
+                }
+            }
+        }
+        q.factor()?;
+        k_fb.copy_from(&q.q_ux_r);
+        cholesky_solve_in_place(&q.chol, k_fb);
+        k_fb.neg_mut();
+        k_ff.fill(0.0);
+        Ok(GainsInfo {
+            gradient: 0.0,
+            exact: false,
+        })
+    }
+}
+
+/// Options of one backward pass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BackwardOptions {
+    /// Regularisation `mu`.
+    pub mu: f64,
+    /// Where `mu` enters.
+    pub placement: Regularization,
+    /// iLQR or full DDP.
+    pub method: Method,
+    /// Full DDP: keep the second-order terms only at knots where they leave the Q block
+    /// definite (the retry after a failed plain pass).
+    pub gated: bool,
+}
+
+/// Expected improvement and stationarity of a backward pass.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Expected {
+    /// `sum k^T Q_u`
+    pub dv1: f64,
+    /// `sum 1/2 k^T Q_uu k`
+    pub dv2: f64,
+    /// Stationarity measure (sum of the gains steps' `gradient`).
+    pub gradient: f64,
+    /// Full DDP knots that fell back to the Gauss-Newton blocks.
+    pub gauss_newton_knots: usize,
+}
+
+impl Expected {
+    /// Expected cost decrease of a step `alpha`: `-(alpha dv1 + alpha^2 dv2)`.
+    #[inline]
+    pub fn decrease(&self, alpha: f64) -> f64 {
+        -(alpha * self.dv1 + alpha * alpha * self.dv2)
+    }
+}
+
+/// Tassa's regularisation state: raised after a failure, lowered after a success.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MuSchedule {
+    /// Current `mu`.
+    pub mu: f64,
+    /// Current factor `Delta`.
+    pub dmu: f64,
+}
+
+impl MuSchedule {
+    /// The start of a solve.
+    pub fn new(s: &RegularizationSettings) -> Self {
+        Self { mu: s.mu_init, dmu: 1.0 }
+    }
+    /// Back to the start.
+    pub fn reset(&mut self, s: &RegularizationSettings) {
+        *self = Self::new(s);
+    }
+    /// `Delta <- max(Delta_0, Delta Delta_0)`, `mu <- max(mu_min, mu Delta)`; `false` past `mu_max`.
+    pub fn raise(&mut self, s: &RegularizationSettings) -> bool {
+        self.dmu = f64::max(s.mu_factor, self.dmu * s.mu_factor);
+        self.mu = f64::max(s.mu_min, self.mu * self.dmu);
+        self.mu <= s.mu_max
+    }
+    /// `Delta <- min(Delta / Delta_0, 1 / Delta_0)`, `mu <- mu Delta` (0 below `mu_min`).
+    pub fn lower(&mut self, s: &RegularizationSettings) {
+        self.dmu = f64::min(self.dmu / s.mu_factor, 1.0 / s.mu_factor);
+        self.mu = if self.mu * self.dmu > s.mu_min {
+            self.mu * self.dmu
+        } else {
+            0.0
+        };
+    }
+}
+
+/// The Armijo test of the line search on the expected improvement: a decrease of at least
+/// `armijo` times the expected one (or no increase where none is expected).
+#[inline]
+pub fn armijo_accepts(ls: &LineSearchSettings, expected: f64, actual: f64) -> bool {
+    (expected > 0.0 && actual >= ls.armijo * expected) || (expected <= 0.0 && actual >= 0.0)
+}
+
+/// One trial of a line search, as the solver's forward pass judges it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Trial {
+    /// Accept this step.
+    Accept,
+    /// Reject it and try a shorter one.
+    Shorter,
+    /// Try the same length again (the forward pass changed its own state, e.g. a trust region).
+    Again,
+    /// Give up this line search.
+    Stop,
+}
+
+/// Backtracking from `alpha = 1` by `step_factor` down to `step_min`: returns the accepted step.
+pub fn line_search(ls: &LineSearchSettings, mut trial: impl FnMut(f64) -> Trial) -> Option<f64> {
+    let mut alpha = 1.0;
+    while alpha >= ls.step_min {
+        match trial(alpha) {
+            Trial::Accept => return Some(alpha),
+            Trial::Shorter => alpha *= ls.step_factor,
+            Trial::Again => {}
+            Trial::Stop => return None,
+        }
+    }
+    None
+}
+
+/// The shared workspace of a DDP solver over at most `capacity` knots: trajectory,
+/// linearisation, policy, value function, Q blocks and the regularisation state.
+#[derive(Debug, Clone)]
+pub struct Core<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// The sizes.
+    pub dims: Dims<NX, NU>,
+    /// Knots in use (at most the capacity the buffers were made for).
+    pub n: usize,
+    /// Nominal and trial trajectories.
+    pub traj: Trajectory<NX, NU>,
+    /// Derivatives along the nominal trajectory.
+    pub lin: Linearization<NX, NU>,
+    /// The policy of the last backward pass.
+    pub policy: Policy<NX, NU>,
+    /// The value function of the last backward pass.
+    pub value: ValueFunction<NX>,
+    /// Q blocks and scratch.
+    pub q: QBlocks<NX, NU>,
+    /// Regularisation state.
+    pub reg: MuSchedule,
+    /// Expected improvement of the last backward pass.
+    pub expected: Expected,
+    /// Cost of the nominal trajectory.
+    pub cost: f64,
+    dx: VectorN<NX>,
+    du: VectorN<NU>,
+}
+
+impl<NX: Dim, NU: Dim> Core<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Allocates every buffer for `capacity` knots.
+    pub fn new(dims: Dims<NX, NU>, capacity: usize, reg: &RegularizationSettings) -> Self {
+        Self {
+            dims,
+            n: capacity,
+            traj: Trajectory::new(dims, capacity),
+            lin: Linearization::new(dims, capacity),
+            policy: Policy::new(dims, capacity),
+            value: ValueFunction::new(dims.nx, capacity),
+            q: QBlocks::new(dims),
+            reg: MuSchedule::new(reg),
+            expected: Expected::default(),
+            cost: f64::NAN,
+            dx: dims.x_zeros(),
+            du: dims.u_zeros(),
+        }
+    }
+
+    /// Projects the nominal controls onto `bounds` (if any).
+    pub fn clamp_controls(&mut self, bounds: Option<&ControlBounds<NU>>) {
+        if let Some(b) = bounds {
+            self.traj.us[..self.n].iter_mut().for_each(|u| b.clamp_mut(u));
+        }
+    }
+
+    /// Simulates the nominal controls from `x0` into the nominal states; returns the cost.
+    #[inline(never)]
+    pub fn rollout(&mut self, problem: &Problem<NX, NU>) -> f64 {
+        let n = self.n;
+        let (xs, us) = (&mut self.traj.xs, &self.traj.us);
+        let mut cost = 0.0;
+        xs[0].copy_from(problem.x0());
+        for (k, knot) in problem.knots()[..n].iter().enumerate() {
+            let (head, tail) = xs.split_at_mut(k + 1);
+            cost += knot.cost.value(&head[k], &us[k]);
+            knot.dynamics.step_into(&head[k], &us[k], &mut tail[0]);
+        }
+        self.cost = cost + problem.terminal().value(&xs[n]);
+        self.cost
+    }
+
+    /// Rolls out the feedback policy with step `alpha` into the trial trajectory:
+    /// `u_k = clamp(u_k + alpha k_k + K_k (x_k_new - x_k))`. Returns the trial's cost.
+    #[inline(never)]
+    pub fn rollout_policy(&mut self, problem: &Problem<NX, NU>, alpha: f64) -> f64 {
+        let n = self.n;
+        let bounds = problem.bounds();
+        let t = &mut self.traj;
+        let mut cost = 0.0;
+        t.xs_try[0].copy_from(problem.x0());
+        for (k, knot) in problem.knots()[..n].iter().enumerate() {
+            let (head, tail) = t.xs_try.split_at_mut(k + 1);
+            let x = &head[k];
+            self.dx.copy_from(x);
+            self.dx -= &t.xs[k];
+            mul_vec_add(&mut self.du, None, &self.policy.k_fb[k], &self.dx);
+            let u = &mut t.us_try[k];
+            for i in 0..u.len() {
+                u[i] = t.us[k][i] + alpha * self.policy.k_ff[k][i] + self.du[i];
+            }
+            if let Some(b) = bounds {
+                b.clamp_mut(u);
+            }
+            cost += knot.cost.value(x, u);
+            knot.dynamics.step_into(x, u, &mut tail[0]);
+        }
+        cost + problem.terminal().value(&t.xs_try[n])
+    }
+
+    /// The derivatives along the nominal trajectory.
+    pub fn linearize(&mut self, problem: &Problem<NX, NU>) {
+        self.lin.compute(problem, &self.traj.xs, &self.traj.us, self.n);
+    }
+
+    /// The backward pass over the workspace's linearisation, policy and value function with the
+    /// variant's `gains`; the expected improvement lands in `self.expected`.
+    pub fn backward(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        gains: &mut impl Gains<NX, NU>,
+        opts: BackwardOptions,
+    ) -> Result<(), NotPositiveDefinite> {
+        self.expected = backward_pass(
+            problem,
+            &self.traj.xs,
+            &self.traj.us,
+            &self.lin,
+            &mut self.q,
+            &mut self.policy,
+            &mut self.value,
+            gains,
+            opts,
+            self.n,
+        )?;
+        Ok(())
+    }
+
+    /// Receding horizon: drops the first knot of the solution and repeats the last control.
+    pub fn shift(&mut self) {
+        let n = self.n;
+        if n > 1 {
+            self.traj.us[..n].rotate_left(1);
+            self.traj.us[n - 1] = self.traj.us[n - 2].clone();
+            self.traj.xs[..=n].rotate_left(1);
+            self.traj.xs[n] = self.traj.xs[n - 1].clone();
+            self.policy.k_ff[..n].rotate_left(1);
+            self.policy.k_ff[n - 1] = self.policy.k_ff[n - 2].clone();
+            self.policy.k_fb[..n].rotate_left(1);
+            self.policy.k_fb[n - 1] = self.policy.k_fb[n - 2].clone();
+        }
+    }
+}
+
+/// The Riccati backward pass of DDP (Tassa et al. 2012, eqs. (5)-(11)) over knots `n-1 .. 0`,
+/// with the gains of `gains`:
+///
+/// ```text
+/// Q_x  = l_x + f_x^T V_x'          Q_u  = l_u + f_u^T V_x'
+/// Q_xx = l_xx + f_x^T V_xx' f_x    Q_uu = l_uu + f_u^T V_xx' f_u    Q_ux = l_ux + f_u^T V_xx' f_x
+/// (full DDP: + V_x' . f_xx, f_ux, f_uu)
+/// V_x  = Q_x + K^T (Q_uu k + Q_u) + Q_ux^T k
+/// V_xx = Q_xx + K^T (Q_uu K + Q_ux) + Q_ux^T K
+/// ```
+///
+/// Reads the derivatives in `lin`, writes `policy` and `value`; one text for every solver and
+/// every size. Returns the expected improvement.
+#[inline(never)]
+pub fn backward_pass<NX: Dim, NU: Dim>(
+    problem: &Problem<NX, NU>,
+    xs: &[VectorN<NX>],
+    us: &[VectorN<NU>],
+    lin: &Linearization<NX, NU>,
+    q: &mut QBlocks<NX, NU>,
+    policy: &mut Policy<NX, NU>,
+    value: &mut ValueFunction<NX>,
+    gains: &mut impl Gains<NX, NU>,
+    opts: BackwardOptions,
+    n: usize,
+) -> Result<Expected, NotPositiveDefinite>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    let ddp = opts.method == Method::Ddp;
+    let mu = opts.mu;
+    let control_reg = opts.placement == Regularization::Control;
+    value.v_x[n].copy_from(&lin.l_n.lx);
+    value.v_xx[n].copy_from(&lin.l_n.lxx);
+    gains.add_curvature(n, &mut value.v_xx[n]);
+    let mut e = Expected::default();
+    for k in (0..n).rev() {
+        let (fx, fu, l) = (&lin.fx[k], &lin.fu[k], &lin.l[k]);
+        let (v_x_k, v_x_next) = value.v_x.split_at_mut(k + 1);
+        let (v_xx_k, v_xx_next) = value.v_xx.split_at_mut(k + 1);
+        let (v_x, v_xx) = (&v_x_next[0], &v_xx_next[0]);
+        q_blocks(q, l, fx, fu, v_x, v_xx);
+        gains.add_curvature(k, &mut q.q_xx);
+        if ddp {
+            let knot = &problem.knots()[k];
+            if knot.dynamics.has_second_order() {
+                q.g_xx.copy_from(&q.q_xx);
+                q.g_ux.copy_from(&q.q_ux);
+                q.g_uu.copy_from(&q.q_uu);
+                knot.dynamics
+                    .add_second_order(&xs[k], &us[k], v_x, &mut q.g_xx, &mut q.g_ux, &mut q.g_uu);
+                // Full DDP adds V_x' . f_xx etc. Far from a minimum that can make the Q block
+                // indefinite, and through Q_xx the indefiniteness would flow into every V_xx
+                // upstream. So after a failed plain pass (`gated`) this knot keeps the
+                // second-order terms only when the whole block is positive (semi)definite:
+                // Q_uu > 0 and its Schur complement Q_xx - Q_ux^T Q_uu^-1 Q_ux >= 0 (the V_xx
+                // this knot passes on). Otherwise it uses the Gauss-Newton blocks, and V_xx
+                // stays PSD by induction.
+                if !opts.gated || second_order_definite(q, fu, fx, mu, opts.placement) {
+                    std::mem::swap(&mut q.q_xx, &mut q.g_xx);
+                    std::mem::swap(&mut q.q_ux, &mut q.g_ux);
+                    std::mem::swap(&mut q.q_uu, &mut q.g_uu);
+                } else {
+                    e.gauss_newton_knots += 1;
+                }
+            }
+        }
+        regularize(q, fx, fu, mu, opts.placement);
+        let (k_ff, k_fb) = (&mut policy.k_ff[k], &mut policy.k_fb[k]);
+        let info = gains.compute(k, q, &us[k], k_ff, k_fb)?;
+        e.gradient += info.gradient;
+        mul_vec_add(&mut q.m_k, None, &q.q_uu, k_ff);
+        e.dv1 += k_ff.dot(&q.q_u);
+        e.dv2 += 0.5 * k_ff.dot(&q.m_k);
+        if info.exact && control_reg {
+            // (Q_uu + mu I) K = -Q_ux and likewise for k, so the brackets of the update are
+            // -mu K and -mu k and both collapse to one product with G = Q_ux - mu K:
+            //   V_x = Q_x + G^T k,   V_xx = Q_xx + G^T K.
+            for (g, (&a, &b)) in q.t_ux.iter_mut().zip(q.q_ux.iter().zip(k_fb.iter())) {
+                *g = a - mu * b;
+            }
+            tr_mul_vec_add(&mut v_x_k[k], Some(&q.q_x), &q.t_ux, k_ff);
+            sym_tr_mul_add(&mut v_xx_k[k], &q.q_xx, &q.t_ux, k_fb);
+        } else {
+            // Valid for any affine policy du = k + K dx (Xie et al. 2017, eq. (14)).
+            q.m_k += &q.q_u;
+            mul_to(&mut q.m_kk, &q.q_uu, k_fb);
+            q.m_kk += &q.q_ux;
+            tr_mul_vec_add(&mut v_x_k[k], Some(&q.q_x), k_fb, &q.m_k);
+            tr_mul_vec_add(&mut q.t_x, None, &q.q_ux, k_ff);
+            v_x_k[k] += &q.t_x;
+            sym_tr_mul2_add(&mut v_xx_k[k], &q.q_xx, k_fb, &q.m_kk, &q.q_ux, k_fb);
+        }
+    }
+    Ok(e)
+}
+
+/// The Gauss-Newton Q blocks of one knot (eq. (5) without the second-order dynamics terms).
+#[inline(always)]
+fn q_blocks<NX: Dim, NU: Dim>(
+    q: &mut QBlocks<NX, NU>,
+    l: &CostDerivatives<NX, NU>,
+    fx: &MatrixN<NX, NX>,
+    fu: &MatrixN<NX, NU>,
+    v_x: &VectorN<NX>,
+    v_xx: &MatrixN<NX, NX>,
+) where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    tr_mul_vec_add(&mut q.q_x, Some(&l.lx), fx, v_x);
+    tr_mul_vec_add(&mut q.q_u, Some(&l.lu), fu, v_x);
+    mul_to(&mut q.v_xx_fx, v_xx, fx);
+    mul_to(&mut q.v_xx_fu, v_xx, fu);
+    sym_tr_mul_add(&mut q.q_xx, &l.lxx, fx, &q.v_xx_fx);
+    tr_mul_add(&mut q.q_uu, Some(&l.luu), fu, &q.v_xx_fu);
+    tr_mul_add(&mut q.q_ux, Some(&l.lux), fu, &q.v_xx_fx);
+}
+
+/// `q_uu_r`, `q_ux_r` from `q_uu`, `q_ux`: `Q_uu + mu I` (control) or `Q_uu + mu f_u^T f_u`,
+/// `Q_ux + mu f_u^T f_x` (state, Tassa et al. 2012 eq. (10)); `q_uu_r` symmetrised.
+#[inline(always)]
+fn regularize<NX: Dim, NU: Dim>(
+    q: &mut QBlocks<NX, NU>,
+    fx: &MatrixN<NX, NX>,
+    fu: &MatrixN<NX, NU>,
+    mu: f64,
+    placement: Regularization,
+) where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    match placement {
+        Regularization::Control => {
+            q.q_uu_r.copy_from(&q.q_uu);
+            for i in 0..q.q_uu_r.nrows() {
+                q.q_uu_r[(i, i)] += mu;
+            }
+            q.q_ux_r.copy_from(&q.q_ux);
+        }
+        Regularization::State => {
+            tr_mul_add(&mut q.q_uu_r, None, fu, fu);
+            q.q_uu_r *= mu;
+            q.q_uu_r += &q.q_uu;
+            tr_mul_add(&mut q.q_ux_r, None, fu, fx);
+            q.q_ux_r *= mu;
+            q.q_ux_r += &q.q_ux;
+        }
+    }
+    let m = q.q_uu_r.nrows();
+    for j in 0..m {
+        for i in 0..j {
+            let s = 0.5 * (q.q_uu_r[(i, j)] + q.q_uu_r[(j, i)]);
+            q.q_uu_r[(i, j)] = s;
+            q.q_uu_r[(j, i)] = s;
+        }
+    }
+}
+
+/// Whether the full-DDP blocks `g_*` are positive (semi)definite after regularisation:
+/// `Q_uu > 0` and `Q_xx - Q_ux^T Q_uu^-1 Q_ux >= 0` (up to a relative tolerance).
+fn second_order_definite<NX: Dim, NU: Dim>(
+    q: &mut QBlocks<NX, NU>,
+    fu: &MatrixN<NX, NU>,
+    fx: &MatrixN<NX, NX>,
+    mu: f64,
+    placement: Regularization,
+) -> bool
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    let (r_uu, r_ux) = match placement {
+        Regularization::Control => {
+            let mut m = q.g_uu.clone();
+            for i in 0..m.nrows() {
+                m[(i, i)] += mu;
+            }
+            (m, q.g_ux.clone())
+        }
+        Regularization::State => (&q.g_uu + fu.tr_mul(fu) * mu, &q.g_ux + fu.tr_mul(fx) * mu),
+    };
+    let sym = (&r_uu + r_uu.transpose()) * 0.5;
+    let Some(c) = sym.cholesky() else {
+        return false;
+    };
+    let schur = &q.g_xx - r_ux.tr_mul(&c.solve(&r_ux));
+    let mut shifted = (&schur + schur.transpose()) * 0.5;
+    let tol = 1e-9 * (1.0 + q.g_xx.amax());
+    for i in 0..shifted.nrows() {
+        shifted[(i, i)] += tol;
+    }
+    shifted.cholesky().is_some()
+}

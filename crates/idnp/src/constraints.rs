@@ -22,6 +22,7 @@
 //! assert!(err.max_first_order() < 1e-5);
 //! ```
 
+use ddp_core::dims::{U10, U5};
 use std::sync::Arc;
 
 use ddp_core::{Matrix, Vector};
@@ -73,8 +74,8 @@ impl BodyObstacle {
     /// One row per body and obstacle of `scene` at the knots, and with `midpoints` one more at
     /// the midpoint of each step ([`BodyObstacle::with_lookback`] of `dt / 2`), as trait objects
     /// for [`safe_cddp::SafeCddpSolver`].
-    pub fn all(scene: &Arc<Scene>, margin: f64, midpoints: bool) -> Result<Vec<Arc<dyn Constraint<10, 5>>>> {
-        let mut out: Vec<Arc<dyn Constraint<10, 5>>> = Vec::with_capacity(6 * scene.obstacles.len());
+    pub fn all(scene: &Arc<Scene>, margin: f64, midpoints: bool) -> Result<Vec<Arc<dyn Constraint<U10, U5>>>> {
+        let mut out: Vec<Arc<dyn Constraint<U10, U5>>> = Vec::with_capacity(6 * scene.obstacles.len());
         let lookbacks: &[f64] = if midpoints { &[0.0, 0.5] } else { &[0.0] };
         for &l in lookbacks {
             for o in 0..scene.obstacles.len() {
@@ -108,7 +109,7 @@ impl BodyObstacle {
     }
 }
 
-impl Constraint<10, 5> for BodyObstacle {
+impl Constraint<U10, U5> for BodyObstacle {
     fn dim(&self) -> usize {
         1
     }

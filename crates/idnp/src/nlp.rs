@@ -22,7 +22,7 @@
 //! interpolated configurations between knots, the TCP ends within the goal ball plus
 //! `goal_tolerance`, and the final base speed and joint rates are at most `max_final_speed`.
 
-use nalgebra::{U10, U5};
+use ddp_core::dims::{U10, U5};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -358,8 +358,10 @@ pub fn solve(scene: &Arc<Scene>, settings: &NlpSettings, x0: &Vector<10>, qs: &[
     let constraints = BodyObstacle::all(scene, settings.constraint_margin, settings.midpoint_rows)?;
     let cs = safe_cddp::Settings {
         max_iterations: settings.max_iterations,
-        gradient_tolerance: 1e-6,
-        cost_tolerance: 1e-7,
+        tolerances: ddp_core::Tolerances {
+            gradient: 1e-6,
+            cost: 1e-7,
+        },
         constraint_tolerance: 1e-6,
         ..safe_cddp::Settings::default()
     };

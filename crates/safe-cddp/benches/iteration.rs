@@ -7,7 +7,7 @@
 //!   with Clarabel as fallback; `clarabel` sends every QP to Clarabel.
 //! - `peers/p2`, `peers/p3`: cold solves of P2 and P3 (`bench/problems.md`).
 
-use nalgebra::{U2, U4};
+use ddp_core::dims::{U2, U4};
 use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
@@ -19,7 +19,7 @@ use safe_cddp::constraints::Circle;
 use safe_cddp::qp::QpMethod;
 use safe_cddp::{Constraint, SafeCddpSolver, Settings, Tightening};
 
-fn car_n90() -> (Problem<U4, U2>, Vec<Arc<dyn Constraint<4, 2>>>) {
+fn car_n90() -> (Problem<U4, U2>, Vec<Arc<dyn Constraint<U4, U2>>>) {
     let running = Arc::new(QuadraticCost::diagonal(&[0.0; 4], &[0.1, 0.1], Vector::zeros(), Vector::zeros()).unwrap());
     let terminal = Arc::new(
         QuadraticTerminal::diagonal(&[100.0, 100.0, 10.0, 10.0], Vector::<4>::new(3.0, 0.0, 0.0, 0.0)).unwrap(),
@@ -33,7 +33,7 @@ fn car_n90() -> (Problem<U4, U2>, Vec<Arc<dyn Constraint<4, 2>>>) {
     )
     .unwrap()
     .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap()).unwrap();
-    let obstacles: Vec<Arc<dyn Constraint<4, 2>>> = vec![
+    let obstacles: Vec<Arc<dyn Constraint<U4, U2>>> = vec![
         Arc::new(Circle::squared([1.0, 0.1], 0.35, [0, 1]).unwrap()),
         Arc::new(Circle::squared([2.0, -0.1], 0.35, [0, 1]).unwrap()),
     ];
@@ -63,13 +63,13 @@ fn iteration(c: &mut Criterion) {
                 // From the converged deterministic trajectory: one KKT/QP iteration, then eqs. 19-20.
                 // (The phases by hand: `iterate` would stop after the backward pass at a converged
                 // trajectory, and a full forward pass with its 90 QPs is what is timed here.)
-                solver.set_tightening(None);
+                solver.set_tightening(None).unwrap();
                 solver.set_controls(&us).unwrap();
                 solver.start(&problem).unwrap();
                 solver.linearize(&problem).unwrap();
                 solver.backward(&problem, 0.0).unwrap();
                 let merit = solver.forward(&problem, 1.0).unwrap();
-                solver.set_tightening(Some(tightening));
+                solver.set_tightening(Some(tightening.clone())).unwrap();
                 solver.tighten(&problem).unwrap();
                 merit
             })

@@ -8,6 +8,7 @@
 //! cargo run --release -p safe-cddp --example crossing -- [episodes]
 //! ```
 
+use ddp_core::dims::{U2, U4};
 use std::sync::Arc;
 
 use ddp_core::{reference, Matrix, Vector};
@@ -73,11 +74,11 @@ fn main() -> ddp_core::Result<()> {
         o.measurement_std,
         o.initial_velocity_std,
     )?;
-    let circle = kf.moving_circle::<4>(problem.horizon(), o.radius, [0, 1], CircleForm::Distance)?;
-    let rows: Vec<Arc<dyn Constraint<4, 2>>> = vec![Arc::new(circle)];
+    let circle = kf.moving_circle::<ddp_core::dims::Const<4>>(problem.horizon(), o.radius, [0, 1], CircleForm::Distance)?;
+    let rows: Vec<Arc<dyn Constraint<U4, U2>>> = vec![Arc::new(circle)];
     let mut solver = SafeCddpSolver::new(&problem, rows, Settings::default())?;
     solver.solve(&problem)?;
-    solver.set_tightening(Some(Tightening::new(0.99, sigma_w)?));
+    solver.set_tightening(Some(Tightening::new(0.99, sigma_w)?))?;
     solver.solve(&problem)?;
     println!("\nmargin of the first crossing disc in the first plan (m), by step:");
     for k in (0..problem.horizon()).step_by(10) {

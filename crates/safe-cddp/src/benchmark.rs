@@ -10,7 +10,7 @@
 //! # Ok::<(), ddp_core::Error>(())
 //! ```
 
-use nalgebra::{Const, U2, U3, U4};
+use ddp_core::dims::{Const, U2, U3, U4};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -156,7 +156,7 @@ impl BenchmarkProblem {
     }
 
     /// The problem and its obstacle constraints for the 4-state models (`"car"`, `"point"`).
-    pub fn car_or_point(&self) -> Result<(Problem<U4, U2>, Vec<Arc<dyn Constraint<4, 2>>>)> {
+    pub fn car_or_point(&self) -> Result<(Problem<U4, U2>, Vec<Arc<dyn Constraint<U4, U2>>>)> {
         let dynamics: Arc<dyn Dynamics<U4, U2>> = match self.model.as_str() {
             "car" => Arc::new(Car::new(self.dt)?),
             "point" => Arc::new(DoubleIntegrator2D::new(self.dt)?),
@@ -172,7 +172,7 @@ impl BenchmarkProblem {
     }
 
     /// The problem and its obstacle constraints for `"unicycle"`.
-    pub fn unicycle(&self) -> Result<(Problem<U3, U2>, Vec<Arc<dyn Constraint<3, 2>>>)> {
+    pub fn unicycle(&self) -> Result<(Problem<U3, U2>, Vec<Arc<dyn Constraint<U3, U2>>>)> {
         if self.model != "unicycle" {
             return Err(Error::invalid(
                 "model",
@@ -183,10 +183,10 @@ impl BenchmarkProblem {
         Ok((problem, self.circles()?))
     }
 
-    fn circles<const NX: usize, const NU: usize>(&self) -> Result<Vec<Arc<dyn Constraint<NX, NU>>>> {
+    fn circles<const NX: usize, const NU: usize>(&self) -> Result<Vec<Arc<dyn Constraint<Const<NX>, Const<NU>>>>> {
         self.obstacles
             .iter()
-            .map(|o| Ok(Arc::new(Circle::<NX>::squared([o[0], o[1]], o[2], [0, 1])?) as Arc<dyn Constraint<NX, NU>>))
+            .map(|o| Ok(Arc::new(Circle::<Const<NX>>::squared([o[0], o[1]], o[2], [0, 1])?) as Arc<dyn Constraint<Const<NX>, Const<NU>>>))
             .collect()
     }
 }

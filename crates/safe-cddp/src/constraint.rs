@@ -14,16 +14,18 @@
 //! prediction to use. Models are immutable and `Send + Sync`; every method writes into caller
 //! buffers and allocates nothing.
 
-use ddp_core::{Matrix, Vector};
+use ddp_core::dims::{Alloc, Const, DefaultAllocator, Dim, MatrixN, VectorN};
+use ddp_core::{Result, Vector};
 
 /// A vector constraint `g(x, u) <= 0` with `dim()` rows. See the [module docs](self).
 ///
 /// ```
 /// use safe_cddp::Constraint;
 /// use ddp_core::Vector;
+/// use ddp_core::dims::{U2, U4};
 /// /// Speed limit `x[3] <= v_max` on a 4-state model.
 /// struct SpeedLimit { v_max: f64 }
-/// impl Constraint<4, 2> for SpeedLimit {
+/// impl Constraint<U4, U2> for SpeedLimit {
 ///     fn dim(&self) -> usize { 1 }
 ///     fn depends_on_control(&self) -> bool { false }
 ///     fn evaluate(&self, _t: usize, x: &Vector<4>, _u: &Vector<2>, g: &mut [f64]) {
@@ -41,7 +43,10 @@ use ddp_core::{Matrix, Vector};
 /// c.evaluate(0, &Vector::<4>::new(0.0, 0.0, 0.0, 1.5), &Vector::zeros(), &mut g);
 /// assert_eq!(g[0], 0.5);
 /// ```
-pub trait Constraint<const NX: usize, const NU: usize>: Send + Sync {
+pub trait Constraint<NX: Dim, NU: Dim>: Send + Sync
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     /// Number of scalar rows.
     fn dim(&self) -> usize;
 
@@ -50,29 +55,29 @@ pub trait Constraint<const NX: usize, const NU: usize>: Send + Sync {
     fn depends_on_control(&self) -> bool;
 
     /// Writes `g(x, u)` at time `t` into `g` (`dim()` entries).
-    fn evaluate(&self, t: usize, x: &Vector<NX>, u: &Vector<NU>, g: &mut [f64]);
+    fn evaluate(&self, t: usize, x: &VectorN<NX>, u: &VectorN<NU>, g: &mut [f64]);
 
-    /// Writes `g`, the gradients `g_x` (one `Vector<NX>` per row) and `g_u` (one `Vector<NU>` per
+    /// Writes `g`, the gradients `g_x` (one `VectorN<NX>` per row) and `g_u` (one `VectorN<NU>` per
     /// row) at time `t`. Every entry is written.
     fn jacobians(
         &self,
         t: usize,
-        x: &Vector<NX>,
-        u: &Vector<NU>,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
         g: &mut [f64],
-        g_x: &mut [Vector<NX>],
-        g_u: &mut [Vector<NU>],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
     );
 
     /// Adds `sum_i w_i * d^2 g_i / dx^2` to `h_xx` (the constraint curvature of the Lagrangian).
     /// Optional: the default adds nothing, and the solver then uses a Gauss-Newton model of the
     /// constraints.
-    fn add_hessian(&self, _t: usize, _x: &Vector<NX>, _u: &Vector<NU>, _w: &[f64], _h_xx: &mut Matrix<NX, NX>) {}
+    fn add_hessian(&self, _t: usize, _x: &VectorN<NX>, _u: &VectorN<NU>, _w: &[f64], _h_xx: &mut MatrixN<NX, NX>) {}
 
     /// Variance of each row caused by the constraint's own uncertain parameters at time `t`, e.g. a
     /// tracked obstacle's predicted position: it is added to `g_x^T Sigma_x g_x` under the square
     /// root of the tightening, eq. (20). The default is zero (a known constraint).
-    fn parameter_variance(&self, _t: usize, _x: &Vector<NX>, _u: &Vector<NU>, var: &mut [f64]) {
+    fn parameter_variance(&self, _t: usize, _x: &VectorN<NX>, _u: &VectorN<NU>, var: &mut [f64]) {
         var.fill(0.0);
     }
 
@@ -82,37 +87,50 @@ pub trait Constraint<const NX: usize, const NU: usize>: Send + Sync {
     fn relative_degree(&self) -> Option<usize> {
         None
     }
+
+    /// Checks that this constraint fits `nx` states and `nu` controls (state indices in range,
+    /// bounds of the right length); the solver calls it once when it is built. The default
+    /// accepts every size (a compile-time size was checked by the type system).
+    fn check_sizes(&self, _nx: usize, _nu: usize) -> Result<()> {
+        Ok(())
+    }
 }
 
-impl<const NX: usize, const NU: usize, C: Constraint<NX, NU> + ?Sized> Constraint<NX, NU> for std::sync::Arc<C> {
+impl<NX: Dim, NU: Dim, C: Constraint<NX, NU> + ?Sized> Constraint<NX, NU> for std::sync::Arc<C>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     fn dim(&self) -> usize {
         (**self).dim()
     }
     fn depends_on_control(&self) -> bool {
         (**self).depends_on_control()
     }
-    fn evaluate(&self, t: usize, x: &Vector<NX>, u: &Vector<NU>, g: &mut [f64]) {
+    fn evaluate(&self, t: usize, x: &VectorN<NX>, u: &VectorN<NU>, g: &mut [f64]) {
         (**self).evaluate(t, x, u, g)
     }
     fn jacobians(
         &self,
         t: usize,
-        x: &Vector<NX>,
-        u: &Vector<NU>,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
         g: &mut [f64],
-        g_x: &mut [Vector<NX>],
-        g_u: &mut [Vector<NU>],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
     ) {
         (**self).jacobians(t, x, u, g, g_x, g_u)
     }
-    fn add_hessian(&self, t: usize, x: &Vector<NX>, u: &Vector<NU>, w: &[f64], h_xx: &mut Matrix<NX, NX>) {
+    fn add_hessian(&self, t: usize, x: &VectorN<NX>, u: &VectorN<NU>, w: &[f64], h_xx: &mut MatrixN<NX, NX>) {
         (**self).add_hessian(t, x, u, w, h_xx)
     }
-    fn parameter_variance(&self, t: usize, x: &Vector<NX>, u: &Vector<NU>, var: &mut [f64]) {
+    fn parameter_variance(&self, t: usize, x: &VectorN<NX>, u: &VectorN<NU>, var: &mut [f64]) {
         (**self).parameter_variance(t, x, u, var)
     }
     fn relative_degree(&self) -> Option<usize> {
         (**self).relative_degree()
+    }
+    fn check_sizes(&self, nx: usize, nu: usize) -> Result<()> {
+        (**self).check_sizes(nx, nu)
     }
 }
 
@@ -141,7 +159,7 @@ impl ConstraintDerivativeErrors {
 
 /// Compares the analytic derivatives of `c` at `(t, x, u)` with central differences of its
 /// `evaluate` (step `eps^(1/3) (1 + |z|)`). Allocates a few small vectors: a test helper.
-pub fn check_constraint_derivatives<const NX: usize, const NU: usize, C: Constraint<NX, NU> + ?Sized>(
+pub fn check_constraint_derivatives<const NX: usize, const NU: usize, C: Constraint<Const<NX>, Const<NU>> + ?Sized>(
     c: &C,
     t: usize,
     x: &Vector<NX>,
@@ -183,7 +201,7 @@ pub fn check_constraint_derivatives<const NX: usize, const NU: usize, C: Constra
     }
     // Hessian of sum_i g_i by differences of the analytic gradient.
     let ones = vec![1.0; m];
-    let mut h_xx = Matrix::<NX, NX>::zeros();
+    let mut h_xx = ddp_core::Matrix::<NX, NX>::zeros();
     c.add_hessian(t, x, u, &ones, &mut h_xx);
     let (mut gxp, mut gxm) = (vec![Vector::<NX>::zeros(); m], vec![Vector::<NX>::zeros(); m]);
     let mut scratch_u = vec![Vector::<NU>::zeros(); m];

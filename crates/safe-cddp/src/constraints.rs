@@ -18,26 +18,38 @@
 //! use safe_cddp::constraints::Circle;
 //! use safe_cddp::Constraint;
 //! use ddp_core::Vector;
-//! let c = Circle::squared([1.0, 0.0], 0.5, [0, 1]).unwrap();
+//! use ddp_core::dims::{U2, U4};
+//! let c: Circle<U4> = Circle::squared([1.0, 0.0], 0.5, [0, 1]).unwrap();
 //! let mut g = [0.0];
-//! Constraint::<4, 2>::evaluate(&c, 0, &Vector::<4>::zeros(), &Vector::<2>::zeros(), &mut g);
+//! Constraint::<U4, U2>::evaluate(&c, 0, &Vector::<4>::zeros(), &Vector::<2>::zeros(), &mut g);
 //! assert_eq!(g[0], 0.25 - 1.0); // outside: g < 0
 //! ```
 
 use ddp_core::error::check_finite;
-use ddp_core::{Error, Matrix, Result, Vector};
+use std::marker::PhantomData;
+
+use ddp_core::dims::{Alloc, Const, DefaultAllocator, Dim, MatrixN, VectorN};
+use ddp_core::{Error, Result, Vector};
 use nalgebra::{Matrix2, Vector2};
 use parry2d_f64::query::PointQuery;
 
 use crate::Constraint;
 
 fn check_indices<const NX: usize>(indices: [usize; 2]) -> Result<()> {
+    check_indices_in(indices, Some(NX))
+}
+
+/// Checks position indices against `nx` (`None`: a run-time size, checked when the solver is
+/// built, see [`Constraint::check_sizes`]).
+fn check_indices_in(indices: [usize; 2], nx: Option<usize>) -> Result<()> {
     for (i, &j) in indices.iter().enumerate() {
-        if j >= NX {
-            return Err(Error::invalid(
-                format!("indices[{i}]"),
-                format!("state index {j} out of range for a {NX}-dimensional state"),
-            ));
+        if let Some(nx) = nx {
+            if j >= nx {
+                return Err(Error::invalid(
+                    format!("indices[{i}]"),
+                    format!("state index {j} out of range for a {nx}-dimensional state"),
+                ));
+            }
         }
     }
     if indices[0] == indices[1] {
@@ -82,26 +94,29 @@ fn circle_terms(form: CircleForm, r: f64, p: Vector2<f64>, c: Vector2<f64>) -> (
     }
 }
 
-/// A circular obstacle (a vertical cylinder for a 3-D robot), as in Xie et al. 2017.
+/// A circular obstacle (a vertical cylinder for a 3-D robot), as in Xie et al. 2017, for any
+/// state size (`NX` compile-time or run-time).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Circle<const NX: usize> {
+pub struct Circle<NX: Dim> {
     center: [f64; 2],
     radius: f64,
     indices: [usize; 2],
     form: CircleForm,
+    states: PhantomData<NX>,
 }
 
-impl<const NX: usize> Circle<NX> {
+impl<NX: Dim> Circle<NX> {
     /// A circle of `radius` at `center` on the position `(x[indices[0]], x[indices[1]])`, in the
     /// given form. Errors name `center`, `radius` or `indices`.
     pub fn new(center: [f64; 2], radius: f64, indices: [usize; 2], form: CircleForm) -> Result<Self> {
         check_finite("center", center.iter())?;
-        check_indices::<NX>(indices)?;
+        check_indices_in(indices, NX::try_to_usize())?;
         Ok(Self {
             center,
             radius: nonneg("radius", radius)?,
             indices,
             form,
+            states: PhantomData,
         })
     }
     /// The squared-distance form `r^2 - |p - c|^2 <= 0`.
@@ -124,7 +139,10 @@ impl<const NX: usize> Circle<NX> {
     pub fn indices(&self) -> [usize; 2] {
         self.indices
     }
-    fn terms(&self, x: &Vector<NX>) -> (f64, Vector2<f64>, Matrix2<f64>) {
+    fn terms(&self, x: &VectorN<NX>) -> (f64, Vector2<f64>, Matrix2<f64>)
+    where
+        DefaultAllocator: Alloc<NX, NX>,
+    {
         let [i, j] = self.indices;
         circle_terms(
             self.form,
@@ -135,39 +153,48 @@ impl<const NX: usize> Circle<NX> {
     }
 }
 
-impl<const NX: usize, const NU: usize> Constraint<NX, NU> for Circle<NX> {
+impl<NX: Dim, NU: Dim> Constraint<NX, NU> for Circle<NX>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     fn dim(&self) -> usize {
         1
     }
     fn depends_on_control(&self) -> bool {
         false
     }
-    fn evaluate(&self, _t: usize, x: &Vector<NX>, _u: &Vector<NU>, g: &mut [f64]) {
+    fn evaluate(&self, _t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, g: &mut [f64]) {
         g[0] = self.terms(x).0;
     }
     fn jacobians(
         &self,
         _t: usize,
-        x: &Vector<NX>,
-        _u: &Vector<NU>,
+        x: &VectorN<NX>,
+        _u: &VectorN<NU>,
         g: &mut [f64],
-        g_x: &mut [Vector<NX>],
-        g_u: &mut [Vector<NU>],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
     ) {
         let (v, gp, _) = self.terms(x);
         g[0] = v;
-        g_x[0] = Vector::zeros();
+        g_x[0].fill(0.0);
         g_x[0][self.indices[0]] = gp[0];
         g_x[0][self.indices[1]] = gp[1];
-        g_u[0] = Vector::zeros();
+        g_u[0].fill(0.0);
     }
-    fn add_hessian(&self, _t: usize, x: &Vector<NX>, _u: &Vector<NU>, w: &[f64], h_xx: &mut Matrix<NX, NX>) {
+    fn add_hessian(&self, _t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, w: &[f64], h_xx: &mut MatrixN<NX, NX>) {
         let (_, _, h) = self.terms(x);
         add_planar_block(h_xx, self.indices, &(w[0] * h));
     }
+    fn check_sizes(&self, nx: usize, _nu: usize) -> Result<()> {
+        check_indices_in(self.indices, Some(nx))
+    }
 }
 
-fn add_planar_block<const NX: usize>(h_xx: &mut Matrix<NX, NX>, idx: [usize; 2], h: &Matrix2<f64>) {
+fn add_planar_block<NX: Dim>(h_xx: &mut MatrixN<NX, NX>, idx: [usize; 2], h: &Matrix2<f64>)
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
     for a in 0..2 {
         for b in 0..2 {
             h_xx[(idx[a], idx[b])] += h[(a, b)];
@@ -181,15 +208,16 @@ fn add_planar_block<const NX: usize>(h_xx: &mut Matrix<NX, NX>, idx: [usize; 2],
 /// `grad_c g^T Sigma_t grad_c g`, so the tightening of eq. (20) adds the obstacle's uncertainty
 /// to the robot's and the margin grows along the horizon.
 #[derive(Debug, Clone, PartialEq)]
-pub struct MovingCircle<const NX: usize> {
+pub struct MovingCircle<NX: Dim> {
     centers: Vec<[f64; 2]>,
     covariances: Vec<Matrix2<f64>>,
     radius: f64,
     indices: [usize; 2],
     form: CircleForm,
+    states: PhantomData<NX>,
 }
 
-impl<const NX: usize> MovingCircle<NX> {
+impl<NX: Dim> MovingCircle<NX> {
     /// `centers[t]` and `covariances[t]` (symmetric PSD 2x2, in the position coordinates) for
     /// `t = 0 .. T`; errors name the field and index.
     pub fn new(
@@ -221,13 +249,14 @@ impl<const NX: usize> MovingCircle<NX> {
                 });
             }
         }
-        check_indices::<NX>(indices)?;
+        check_indices_in(indices, NX::try_to_usize())?;
         Ok(Self {
             centers,
             covariances,
             radius: nonneg("radius", radius)?,
             indices,
             form,
+            states: PhantomData,
         })
     }
     /// The predicted centre at time `t` (the last one beyond the table).
@@ -242,7 +271,10 @@ impl<const NX: usize> MovingCircle<NX> {
     pub fn radius(&self) -> f64 {
         self.radius
     }
-    fn terms(&self, t: usize, x: &Vector<NX>) -> (f64, Vector2<f64>, Matrix2<f64>) {
+    fn terms(&self, t: usize, x: &VectorN<NX>) -> (f64, Vector2<f64>, Matrix2<f64>)
+    where
+        DefaultAllocator: Alloc<NX, NX>,
+    {
         let [i, j] = self.indices;
         let c = self.center(t);
         circle_terms(
@@ -254,40 +286,46 @@ impl<const NX: usize> MovingCircle<NX> {
     }
 }
 
-impl<const NX: usize, const NU: usize> Constraint<NX, NU> for MovingCircle<NX> {
+impl<NX: Dim, NU: Dim> Constraint<NX, NU> for MovingCircle<NX>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     fn dim(&self) -> usize {
         1
     }
     fn depends_on_control(&self) -> bool {
         false
     }
-    fn evaluate(&self, t: usize, x: &Vector<NX>, _u: &Vector<NU>, g: &mut [f64]) {
+    fn evaluate(&self, t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, g: &mut [f64]) {
         g[0] = self.terms(t, x).0;
     }
     fn jacobians(
         &self,
         t: usize,
-        x: &Vector<NX>,
-        _u: &Vector<NU>,
+        x: &VectorN<NX>,
+        _u: &VectorN<NU>,
         g: &mut [f64],
-        g_x: &mut [Vector<NX>],
-        g_u: &mut [Vector<NU>],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
     ) {
         let (v, gp, _) = self.terms(t, x);
         g[0] = v;
-        g_x[0] = Vector::zeros();
+        g_x[0].fill(0.0);
         g_x[0][self.indices[0]] = gp[0];
         g_x[0][self.indices[1]] = gp[1];
-        g_u[0] = Vector::zeros();
+        g_u[0].fill(0.0);
     }
-    fn add_hessian(&self, t: usize, x: &Vector<NX>, _u: &Vector<NU>, w: &[f64], h_xx: &mut Matrix<NX, NX>) {
+    fn add_hessian(&self, t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, w: &[f64], h_xx: &mut MatrixN<NX, NX>) {
         let (_, _, h) = self.terms(t, x);
         add_planar_block(h_xx, self.indices, &(w[0] * h));
     }
-    fn parameter_variance(&self, t: usize, x: &Vector<NX>, _u: &Vector<NU>, var: &mut [f64]) {
+    fn parameter_variance(&self, t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, var: &mut [f64]) {
         // g depends on p - c, so grad_c g = -grad_p g and the variance is the same quadratic form.
         let (_, gp, _) = self.terms(t, x);
         var[0] = gp.dot(&(self.covariance(t) * gp)).max(0.0);
+    }
+    fn check_sizes(&self, nx: usize, _nu: usize) -> Result<()> {
+        check_indices_in(self.indices, Some(nx))
     }
 }
 
@@ -355,7 +393,7 @@ impl<const NX: usize> ConvexPolygon<NX> {
     }
 }
 
-impl<const NX: usize, const NU: usize> Constraint<NX, NU> for ConvexPolygon<NX> {
+impl<const NX: usize, const NU: usize> Constraint<Const<NX>, Const<NU>> for ConvexPolygon<NX> {
     fn dim(&self) -> usize {
         1
     }
@@ -407,10 +445,10 @@ impl<const NX: usize, const NU: usize> Constraint<NX, NU> for ConvexPolygon<NX> 
 /// let mut x = Vector::<12>::zeros();
 /// x[0] = 0.3; // 0.2 m inside the side ...
 /// x[2] = 0.5; // ... and 0.5 m below the top: g = min(0.2, 0.5)
-/// Constraint::<12, 4>::evaluate(&c, 0, &x, &Vector::zeros(), &mut g);
+/// Constraint::<ddp_core::dims::U12, ddp_core::dims::U4>::evaluate(&c, 0, &x, &Vector::zeros(), &mut g);
 /// assert!((g[0] - 0.2).abs() < 1e-12);
 /// x[2] = 1.2; // 0.2 m above the top: outside
-/// Constraint::<12, 4>::evaluate(&c, 0, &x, &Vector::zeros(), &mut g);
+/// Constraint::<ddp_core::dims::U12, ddp_core::dims::U4>::evaluate(&c, 0, &x, &Vector::zeros(), &mut g);
 /// assert!((g[0] + 0.2).abs() < 1e-12);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -482,7 +520,7 @@ impl<const NX: usize> Cylinder<NX> {
     }
 }
 
-impl<const NX: usize, const NU: usize> Constraint<NX, NU> for Cylinder<NX> {
+impl<const NX: usize, const NU: usize> Constraint<Const<NX>, Const<NU>> for Cylinder<NX> {
     fn dim(&self) -> usize {
         1
     }
@@ -511,6 +549,18 @@ impl<const NX: usize, const NU: usize> Constraint<NX, NU> for Cylinder<NX> {
     }
 }
 
+/// A box built for `len` entries must fit a state or control of `n`.
+fn check_box_len(field: &str, len: usize, n: usize) -> Result<()> {
+    if len != n {
+        return Err(Error::Shape {
+            field: field.into(),
+            got: format!("({len},)"),
+            expected: format!("({n},)"),
+        });
+    }
+    Ok(())
+}
+
 /// One row of a box: `sign * (z[index] - bound) <= 0` (sign `+1` for an upper bound).
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct BoxRow {
@@ -519,9 +569,19 @@ struct BoxRow {
     bound: f64,
 }
 
-fn box_rows<const N: usize>(lower: &Vector<N>, upper: &Vector<N>, lo: &str, hi: &str) -> Result<Vec<BoxRow>> {
+fn box_rows<N: Dim>(lower: &VectorN<N>, upper: &VectorN<N>, lo: &str, hi: &str) -> Result<Vec<BoxRow>>
+where
+    DefaultAllocator: Alloc<N, N>,
+{
+    if lower.len() != upper.len() {
+        return Err(Error::Shape {
+            field: hi.into(),
+            got: format!("({},)", upper.len()),
+            expected: format!("({},) like {lo}", lower.len()),
+        });
+    }
     let mut rows = Vec::new();
-    for i in 0..N {
+    for i in 0..lower.len() {
         if lower[i].is_nan() || lower[i] == f64::INFINITY {
             return Err(Error::NotFinite {
                 field: lo.into(),
@@ -562,27 +622,37 @@ fn box_rows<const N: usize>(lower: &Vector<N>, upper: &Vector<N>, lo: &str, hi: 
 
 /// State limits `lower <= x <= upper` (infinite entries give no row): one row per finite bound.
 #[derive(Debug, Clone, PartialEq)]
-pub struct StateBox<const NX: usize> {
+pub struct StateBox<NX: Dim> {
     rows: Vec<BoxRow>,
+    len: usize,
+    size: PhantomData<NX>,
 }
 
-impl<const NX: usize> StateBox<NX> {
-    /// Errors name `x_min`/`x_max` and the index (NaN, `lower > upper`).
-    pub fn new(lower: Vector<NX>, upper: Vector<NX>) -> Result<Self> {
+impl<NX: Dim> StateBox<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    /// Errors name `x_min`/`x_max` and the index (NaN, `lower > upper`, lengths that differ).
+    pub fn new(lower: VectorN<NX>, upper: VectorN<NX>) -> Result<Self> {
         Ok(Self {
             rows: box_rows(&lower, &upper, "x_min", "x_max")?,
+            len: lower.len(),
+            size: PhantomData,
         })
     }
 }
 
-impl<const NX: usize, const NU: usize> Constraint<NX, NU> for StateBox<NX> {
+impl<NX: Dim, NU: Dim> Constraint<NX, NU> for StateBox<NX>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     fn dim(&self) -> usize {
         self.rows.len()
     }
     fn depends_on_control(&self) -> bool {
         false
     }
-    fn evaluate(&self, _t: usize, x: &Vector<NX>, _u: &Vector<NU>, g: &mut [f64]) {
+    fn evaluate(&self, _t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, g: &mut [f64]) {
         for (gi, r) in g.iter_mut().zip(&self.rows) {
             *gi = r.sign * (x[r.index] - r.bound);
         }
@@ -590,18 +660,21 @@ impl<const NX: usize, const NU: usize> Constraint<NX, NU> for StateBox<NX> {
     fn jacobians(
         &self,
         t: usize,
-        x: &Vector<NX>,
-        u: &Vector<NU>,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
         g: &mut [f64],
-        g_x: &mut [Vector<NX>],
-        g_u: &mut [Vector<NU>],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
     ) {
         Constraint::<NX, NU>::evaluate(self, t, x, u, g);
         for (i, r) in self.rows.iter().enumerate() {
-            g_x[i] = Vector::zeros();
+            g_x[i].fill(0.0);
             g_x[i][r.index] = r.sign;
-            g_u[i] = Vector::zeros();
+            g_u[i].fill(0.0);
         }
+    }
+    fn check_sizes(&self, nx: usize, _nu: usize) -> Result<()> {
+        check_box_len("x_min", self.len, nx)
     }
 }
 
@@ -609,27 +682,37 @@ impl<const NX: usize, const NU: usize> Constraint<NX, NU> for StateBox<NX> {
 /// [`ddp_core::ControlBounds`] (hard actuator limits, never tightened), these rows are tightened
 /// by the closed-loop control variance `g_u^T K Sigma_x K^T g_u`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ControlBox<const NU: usize> {
+pub struct ControlBox<NU: Dim> {
     rows: Vec<BoxRow>,
+    len: usize,
+    size: PhantomData<NU>,
 }
 
-impl<const NU: usize> ControlBox<NU> {
-    /// Errors name `u_min`/`u_max` and the index (NaN, `lower > upper`).
-    pub fn new(lower: Vector<NU>, upper: Vector<NU>) -> Result<Self> {
+impl<NU: Dim> ControlBox<NU>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    /// Errors name `u_min`/`u_max` and the index (NaN, `lower > upper`, lengths that differ).
+    pub fn new(lower: VectorN<NU>, upper: VectorN<NU>) -> Result<Self> {
         Ok(Self {
             rows: box_rows(&lower, &upper, "u_min", "u_max")?,
+            len: lower.len(),
+            size: PhantomData,
         })
     }
 }
 
-impl<const NX: usize, const NU: usize> Constraint<NX, NU> for ControlBox<NU> {
+impl<NX: Dim, NU: Dim> Constraint<NX, NU> for ControlBox<NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     fn dim(&self) -> usize {
         self.rows.len()
     }
     fn depends_on_control(&self) -> bool {
         true
     }
-    fn evaluate(&self, _t: usize, _x: &Vector<NX>, u: &Vector<NU>, g: &mut [f64]) {
+    fn evaluate(&self, _t: usize, _x: &VectorN<NX>, u: &VectorN<NU>, g: &mut [f64]) {
         for (gi, r) in g.iter_mut().zip(&self.rows) {
             *gi = r.sign * (u[r.index] - r.bound);
         }
@@ -637,18 +720,21 @@ impl<const NX: usize, const NU: usize> Constraint<NX, NU> for ControlBox<NU> {
     fn jacobians(
         &self,
         t: usize,
-        x: &Vector<NX>,
-        u: &Vector<NU>,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
         g: &mut [f64],
-        g_x: &mut [Vector<NX>],
-        g_u: &mut [Vector<NU>],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
     ) {
         Constraint::<NX, NU>::evaluate(self, t, x, u, g);
         for (i, r) in self.rows.iter().enumerate() {
-            g_x[i] = Vector::zeros();
-            g_u[i] = Vector::zeros();
+            g_x[i].fill(0.0);
+            g_u[i].fill(0.0);
             g_u[i][r.index] = r.sign;
         }
+    }
+    fn check_sizes(&self, _nx: usize, nu: usize) -> Result<()> {
+        check_box_len("u_min", self.len, nu)
     }
 }
 
@@ -680,7 +766,7 @@ impl<F> FiniteDiffConstraint<F> {
     }
 }
 
-impl<const NX: usize, const NU: usize, F> Constraint<NX, NU> for FiniteDiffConstraint<F>
+impl<const NX: usize, const NU: usize, F> Constraint<Const<NX>, Const<NU>> for FiniteDiffConstraint<F>
 where
     F: Fn(usize, &Vector<NX>, &Vector<NU>, &mut [f64]) + Send + Sync,
 {

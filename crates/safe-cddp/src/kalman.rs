@@ -164,7 +164,7 @@ impl ObstacleTracker {
 
     /// The obstacle of radius `radius` as a [`MovingCircle`] on the robot's position
     /// `(x[indices[0]], x[indices[1]])`, predicted `steps` steps ahead (allocates the table).
-    pub fn moving_circle<const NX: usize>(
+    pub fn moving_circle<NX: ddp_core::dims::Dim>(
         &self,
         steps: usize,
         radius: f64,

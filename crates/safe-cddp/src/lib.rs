@@ -35,7 +35,7 @@
 //!
 //! // P3's double integrator to (3, 3) around one obstacle (squared-distance form).
 //! let problem = reference::point_reach();
-//! let obstacle: Arc<dyn Constraint<4, 2>> = Arc::new(Circle::squared([1.5, 1.5], 0.5, [0, 1])?);
+//! let obstacle: Arc<dyn Constraint<ddp_core::dims::U4, ddp_core::dims::U2>> = Arc::new(Circle::squared([1.5, 1.5], 0.5, [0, 1])?);
 //! let mut solver = SafeCddpSolver::new(&problem, vec![obstacle], Settings::default())?;
 //! let report = solver.solve(&problem)?;
 //! assert_eq!(report.status, Status::Converged);

@@ -13,12 +13,13 @@
 //! ```
 //! use std::sync::Arc;
 //! use ddp_core::{reference, Matrix, Vector};
+//! use ddp_core::dims::{U2, U4};
 //! use safe_cddp::constraints::Circle;
 //! use safe_cddp::mpc::{Mpc, MpcSettings};
 //! use safe_cddp::{Constraint, Settings, Tightening};
 //!
 //! let problem = reference::point_reach();
-//! let obstacle: Arc<dyn Constraint<4, 2>> = Arc::new(Circle::squared([1.5, 1.4], 0.4, [0, 1])?);
+//! let obstacle: Arc<dyn Constraint<U4, U2>> = Arc::new(Circle::squared([1.5, 1.4], 0.4, [0, 1])?);
 //! let sigma_w = Matrix::<4, 4>::from_diagonal(&Vector::<4>::new(1e-5, 1e-5, 1e-6, 1e-6));
 //! let tightening = Tightening::new(0.95, sigma_w)?;
 //! let mpc_settings = MpcSettings { goal: Vector::<4>::new(3.0, 3.0, 0.0, 0.0), goal_radius: 0.1, ..MpcSettings::default() };
@@ -28,11 +29,11 @@
 //! # Ok::<(), ddp_core::Error>(())
 //! ```
 
-use nalgebra::Const;
 use std::sync::Arc;
 
 use ddp_core::costs::check_psd;
-use ddp_core::{Error, Matrix, Problem, Result, Vector};
+use ddp_core::dims::{Alloc, Const, DefaultAllocator, Dim, MatrixN, VectorN, U1};
+use ddp_core::{Error, Problem, Result};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -43,13 +44,16 @@ use crate::{Constraint, IterationOutcome, SafeCddpSolver, Settings, Tightening};
 
 /// Settings of the MPC loop.
 #[derive(Debug, Clone, PartialEq)]
-pub struct MpcSettings<const NX: usize> {
+pub struct MpcSettings<NX: Dim>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
     /// `n1`: iterations per MPC step (the paper uses 10).
     pub iterations: usize,
     /// Iterations of the initial solve before the first step (the paper's initialisation).
     pub initial_iterations: usize,
     /// The goal state; only `goal_indices` are compared.
-    pub goal: Vector<NX>,
+    pub goal: VectorN<NX>,
     /// The state indices of the goal test (the position).
     pub goal_indices: Vec<usize>,
     /// Success radius around the goal.
@@ -58,16 +62,26 @@ pub struct MpcSettings<const NX: usize> {
     pub position_indices: [usize; 2],
 }
 
-impl<const NX: usize> Default for MpcSettings<NX> {
-    fn default() -> Self {
+impl<NX: Dim> MpcSettings<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    /// The defaults with this goal (the goal's length fixes a run-time state size).
+    pub fn with_goal(goal: VectorN<NX>) -> Self {
         Self {
             iterations: 10,
             initial_iterations: 50,
-            goal: Vector::zeros(),
+            goal,
             goal_indices: vec![0, 1],
             goal_radius: 0.1,
             position_indices: [0, 1],
         }
+    }
+}
+
+impl<const NX: usize> Default for MpcSettings<Const<NX>> {
+    fn default() -> Self {
+        Self::with_goal(ddp_core::Vector::<NX>::zeros())
     }
 }
 
@@ -91,7 +105,10 @@ pub struct MovingObstacle {
 
 /// One MPC episode.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Episode<const NX: usize, const NU: usize> {
+pub struct Episode<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     /// The goal region was reached.
     pub success: bool,
     /// MPC steps applied.
@@ -101,44 +118,65 @@ pub struct Episode<const NX: usize, const NU: usize> {
     /// Steps at which the solver reported an infeasible QP or trajectory.
     pub infeasible_steps: usize,
     /// The true states `x_0 .. x_steps`.
-    pub xs: Vec<Vector<NX>>,
+    pub xs: Vec<VectorN<NX>>,
     /// The applied controls.
-    pub us: Vec<Vector<NU>>,
+    pub us: Vec<VectorN<NU>>,
     /// Predicted position covariance of the first plan (`Sigma_t` at the initial solve).
-    pub initial_covariances: Vec<Matrix<NX, NX>>,
+    pub initial_covariances: Vec<MatrixN<NX, NX>>,
     /// Norm of the gains `|K_t|_F` of the first plan.
     pub initial_gain_norms: Vec<f64>,
     /// The first plan's states.
-    pub initial_plan: Vec<Vector<NX>>,
+    pub initial_plan: Vec<VectorN<NX>>,
 }
 
 /// Shrinking-horizon Safe-CDDP MPC (Algorithm 1). Owns a problem copy, the solver and the
 /// obstacle trackers; [`Mpc::run_episode`] is deterministic for a seed.
-pub struct Mpc<const NX: usize, const NU: usize> {
-    problem: Problem<Const<NX>, Const<NU>>,
+pub struct Mpc<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    problem: Problem<NX, NU>,
     solver: SafeCddpSolver<NX, NU>,
     n_static: usize,
     moving: Vec<MovingObstacle>,
-    noise_chol: Matrix<NX, NX>,
+    noise_chol: MatrixN<NX, NX>,
     settings: MpcSettings<NX>,
     horizon: usize,
     dt_obstacles: f64,
 }
 
-impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
+impl<NX: Dim, NU: Dim> Mpc<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     /// `constraints`: static constraints (collisions are counted on them); `moving`: moving
     /// obstacles (circles on `position_indices`, distance form, tracked with the sampling period
     /// `dt` of [`Mpc::with_obstacle_dt`], default 0.05 s); `tightening`: `None` for plain CDDP;
     /// `sigma_w`: the true process noise of the simulation (symmetric PSD).
     pub fn new(
-        problem: &Problem<Const<NX>, Const<NU>>,
+        problem: &Problem<NX, NU>,
         constraints: Vec<Arc<dyn Constraint<NX, NU>>>,
         moving: Vec<MovingObstacle>,
         settings: Settings,
         tightening: Option<Tightening<NX, NU>>,
-        sigma_w: Matrix<NX, NX>,
+        sigma_w: MatrixN<NX, NX>,
         mpc: MpcSettings<NX>,
     ) -> Result<Self> {
+        let nx = problem.dims().nx();
+        if sigma_w.shape() != (nx, nx) {
+            return Err(Error::Shape {
+                field: "sigma_w".into(),
+                got: format!("{:?}", sigma_w.shape()),
+                expected: format!("({nx}, {nx})"),
+            });
+        }
+        if mpc.goal.len() != nx {
+            return Err(Error::Shape {
+                field: "mpc.goal".into(),
+                got: format!("({},)", mpc.goal.len()),
+                expected: format!("({nx},)"),
+            });
+        }
         check_psd("sigma_w", &sigma_w)?;
         if mpc.iterations == 0 {
             return Err(Error::invalid("mpc.iterations", "must be at least 1"));
@@ -147,10 +185,10 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
             return Err(Error::invalid("mpc.goal_radius", "must be finite and > 0"));
         }
         for (i, &j) in mpc.goal_indices.iter().chain(mpc.position_indices.iter()).enumerate() {
-            if j >= NX {
+            if j >= nx {
                 return Err(Error::invalid(
                     format!("mpc indices[{i}]"),
-                    format!("state index {j} out of range for {NX} states"),
+                    format!("state index {j} out of range for {nx} states"),
                 ));
             }
         }
@@ -175,16 +213,17 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
             )?));
         }
         let mut solver = SafeCddpSolver::new(problem, all, settings)?;
-        solver.set_tightening(tightening);
+        solver.set_tightening(tightening)?;
         // Cholesky of Sigma_w (a PSD matrix may be singular: factor Sigma_w + tiny I then).
-        let noise_chol = match sigma_w.cholesky() {
+        let (r, c) = sigma_w.shape_generic();
+        let noise_chol = match sigma_w.clone().cholesky() {
             Some(c) => c.l(),
-            None => (sigma_w + Matrix::<NX, NX>::identity() * 1e-300)
+            None => (&sigma_w + MatrixN::<NX, NX>::identity_generic(r, c) * 1e-300)
                 .cholesky()
                 .map(|c| c.l())
                 .unwrap_or_else(|| {
                     // Diagonal fallback for a singular covariance.
-                    Matrix::from_diagonal(&sigma_w.diagonal().map(|v| v.max(0.0).sqrt()))
+                    MatrixN::from_diagonal(&sigma_w.diagonal().map(|v| v.max(0.0).sqrt()))
                 }),
         };
         Ok(Self {
@@ -239,7 +278,7 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
     }
 
     fn run_iterations(&mut self, iterations: usize) -> Result<bool> {
-        let tightening = self.solver.tightening().copied();
+        let tightening = self.solver.tightening().cloned();
         let mut infeasible = false;
         // The first KKT/QP iteration of a step tightens (Algorithm 1: iter % n2 == 0), then every n2.
         let mut since = usize::MAX / 2;
@@ -265,8 +304,9 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
     /// Runs one episode from the problem's `x0` with noise seeded by `seed`.
     pub fn run_episode(&mut self, seed: u64) -> Result<Episode<NX, NU>> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let x_init = *self.problem.x0();
-        let mut x = x_init;
+        let x_init = self.problem.x0().clone();
+        let mut x = x_init.clone();
+        let nx = self.problem.dims().nx;
         let n_total = self.horizon;
         self.solver.set_horizon(n_total)?;
         self.solver.reset();
@@ -282,7 +322,7 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
             steps: 0,
             collisions: 0,
             infeasible_steps: 0,
-            xs: vec![x],
+            xs: vec![x.clone()],
             us: Vec::new(),
             initial_covariances: self.solver.covariances().to_vec(),
             initial_gain_norms: self.solver.propagation_gains().iter().map(|k| k.norm()).collect(),
@@ -298,9 +338,9 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
                     episode.infeasible_steps += 1;
                 }
             }
-            let u0 = self.solver.us()[0];
-            let w = Vector::<NX>::from_fn(|_, _| StandardNormal.sample(&mut rng));
-            x = dynamics.step(&x, &u0) + self.noise_chol * w;
+            let u0 = self.solver.us()[0].clone();
+            let w = VectorN::<NX>::from_fn_generic(nx, U1, |_, _| StandardNormal.sample(&mut rng));
+            x = dynamics.step(&x, &u0) + &self.noise_chol * w;
             // The obstacles move, are measured and tracked.
             for (i, o) in self.moving.iter().enumerate() {
                 true_obstacles[i][0] += self.dt_obstacles * o.velocity[0];
@@ -315,7 +355,7 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
             }
             episode.steps += 1;
             episode.us.push(u0);
-            episode.xs.push(x);
+            episode.xs.push(x.clone());
             if self.collides(&x, &true_obstacles, &mut g) {
                 episode.collisions += 1;
             }
@@ -332,7 +372,7 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
             if n == 1 {
                 break;
             }
-            self.problem.set_x0(x)?;
+            self.problem.set_x0(x.clone())?;
             self.solver.shift();
             self.solver.set_horizon(n - 1)?;
             self.impose_moving(&trackers, n - 1)?;
@@ -342,8 +382,8 @@ impl<const NX: usize, const NU: usize> Mpc<NX, NU> {
     }
 
     /// Whether `x` violates an original static constraint or is inside a moving obstacle.
-    fn collides(&self, x: &Vector<NX>, obstacles: &[[f64; 2]], g: &mut [f64]) -> bool {
-        let zero_u = Vector::<NU>::zeros();
+    fn collides(&self, x: &VectorN<NX>, obstacles: &[[f64; 2]], g: &mut [f64]) -> bool {
+        let zero_u = self.problem.dims().u_zeros();
         for c in &self.solver.constraints()[..self.n_static] {
             if c.depends_on_control() {
                 continue;

@@ -23,7 +23,9 @@
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
-use ddp_core::{Error, Matrix, Result, Vector};
+use ddp_core::dims::{Alloc, DefaultAllocator, Dim, MatrixN, VectorN, U1};
+use ddp_core::{Error, Result};
+use nalgebra::Cholesky;
 
 /// Which solvers [`StepQp::solve`] may use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -47,10 +49,13 @@ pub enum QpPath {
 }
 
 /// The answer of [`StepQp::solve`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum QpOutcome<const NU: usize> {
+#[derive(Debug, Clone, PartialEq)]
+pub enum QpOutcome<NU: Dim>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
     /// The optimal `du` and the path that found it.
-    Solved(Vector<NU>, QpPath),
+    Solved(VectorN<NU>, QpPath),
     /// No `du` satisfies the rows (certified by Clarabel).
     Infeasible,
     /// Clarabel stopped without a solution or a certificate (iteration limit, numerical trouble).
@@ -82,6 +87,9 @@ pub struct QpStats {
 const FEAS_TOL: f64 = 1e-10;
 /// Working-set changes the active-set method may make before handing over to Clarabel.
 const ACTIVE_SET_ITERATIONS: usize = 8;
+
+/// The most controls a per-step QP takes (its polish step keeps a stack list of 64 rows).
+pub const MAX_QP_CONTROLS: usize = 63;
 
 /// A Clarabel instance for `n` variables and `m` rows with dense patterns (upper triangle of `P`,
 /// all of `A`), set up once and updated in place.
@@ -190,7 +198,11 @@ impl ClarabelQp {
 
 /// The per-step QP solver and its buffers, for `NU` controls and up to `max_rows` rows (the
 /// trust region adds `2 NU` more internally).
-pub struct StepQp<const NU: usize> {
+pub struct StepQp<NU: Dim>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    nu: NU,
     max_rows: usize,
     method: QpMethod,
     clarabel: ClarabelQp,
@@ -199,7 +211,10 @@ pub struct StepQp<const NU: usize> {
     stats: QpStats,
 }
 
-impl<const NU: usize> std::fmt::Debug for StepQp<NU> {
+impl<NU: Dim> std::fmt::Debug for StepQp<NU>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("StepQp")
             .field("max_rows", &self.max_rows)
@@ -209,20 +224,28 @@ impl<const NU: usize> std::fmt::Debug for StepQp<NU> {
     }
 }
 
-impl<const NU: usize> StepQp<NU> {
-    /// Sets up two Clarabel instances once (the QP: `NU` variables, `max_rows + 2 NU` rows; its
+impl<NU: Dim> StepQp<NU>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    /// Sets up two Clarabel instances once (the QP: `nu` variables, `max_rows + 2 nu` rows; its
     /// elastic form: one slack more) with dense patterns, and allocates every buffer.
-    pub fn new(max_rows: usize, method: QpMethod) -> Result<Self> {
-        if NU > 63 {
-            return Err(Error::invalid("NU", "the per-step QP supports at most 63 controls"));
+    pub fn new(nu: NU, max_rows: usize, method: QpMethod) -> Result<Self> {
+        let n = nu.value();
+        if n > MAX_QP_CONTROLS {
+            return Err(Error::invalid(
+                "nu",
+                format!("{n} exceeds the per-step QP's limit of {MAX_QP_CONTROLS} controls"),
+            ));
         }
-        let m = max_rows + 2 * NU;
+        let m = max_rows + 2 * n;
         Ok(Self {
+            nu,
             max_rows,
             method,
-            clarabel: ClarabelQp::new(NU, m)?,
-            elastic: ClarabelQp::new(NU + 1, m + 1)?,
-            working: Vec::with_capacity(NU),
+            clarabel: ClarabelQp::new(n, m)?,
+            elastic: ClarabelQp::new(n + 1, m + 1)?,
+            working: Vec::with_capacity(n),
             stats: QpStats::default(),
         })
     }
@@ -258,9 +281,9 @@ impl<const NU: usize> StepQp<NU> {
     /// it only affects speed. Panics if `a.len() > max_rows` or `a.len() != b.len()`.
     pub fn solve(
         &mut self,
-        h: &Matrix<NU, NU>,
-        q: &Vector<NU>,
-        a: &[Vector<NU>],
+        h: &MatrixN<NU, NU>,
+        q: &VectorN<NU>,
+        a: &[VectorN<NU>],
         b: &[f64],
         trust: f64,
         guess: &[usize],
@@ -270,7 +293,7 @@ impl<const NU: usize> StepQp<NU> {
             "QP rows exceed the capacity"
         );
         self.stats.solved += 1;
-        let Some(chol) = h.cholesky() else {
+        let Some(chol) = h.clone().cholesky() else {
             self.stats.failed += 1;
             return QpOutcome::Failed;
         };
@@ -291,20 +314,20 @@ impl<const NU: usize> StepQp<NU> {
     /// Row `i` of the combined system: constraint rows first, then the trust region
     /// (`+du_j <= trust`, `-du_j <= trust`).
     #[inline]
-    fn row(a: &[Vector<NU>], b: &[f64], trust: f64, i: usize) -> (Vector<NU>, f64) {
+    fn row(nu: NU, a: &[VectorN<NU>], b: &[f64], trust: f64, i: usize) -> (VectorN<NU>, f64) {
         if i < a.len() {
-            (a[i], b[i])
+            (a[i].clone(), b[i])
         } else {
             let j = (i - a.len()) / 2;
             let sign = if (i - a.len()) % 2 == 0 { 1.0 } else { -1.0 };
-            let mut e = Vector::<NU>::zeros();
+            let mut e = VectorN::<NU>::zeros_generic(nu, U1);
             e[j] = sign;
             (e, trust)
         }
     }
 
-    fn n_rows(a: &[Vector<NU>], trust: f64) -> usize {
-        a.len() + if trust.is_finite() { 2 * NU } else { 0 }
+    fn n_rows(&self, a: &[VectorN<NU>], trust: f64) -> usize {
+        a.len() + if trust.is_finite() { 2 * self.nu.value() } else { 0 }
     }
 
     /// Exact solve with the rows of `self.working` held as equalities: returns `du` and writes the
@@ -312,24 +335,25 @@ impl<const NU: usize> StepQp<NU> {
     /// working rows are (nearly) dependent.
     fn equality_qp(
         &self,
-        chol: &nalgebra::Cholesky<f64, nalgebra::Const<NU>>,
-        q: &Vector<NU>,
-        a: &[Vector<NU>],
+        chol: &Cholesky<f64, NU>,
+        q: &VectorN<NU>,
+        a: &[VectorN<NU>],
         b: &[f64],
         trust: f64,
-        lambda: &mut Vector<NU>,
-    ) -> Option<Vector<NU>> {
+        lambda: &mut VectorN<NU>,
+    ) -> Option<VectorN<NU>> {
         let hq = chol.solve(q);
         let m = self.working.len();
-        let mut hw = Matrix::<NU, NU>::zeros(); // columns H^{-1} a_w
-        let mut s = Matrix::<NU, NU>::identity();
-        let mut rhs = Vector::<NU>::zeros();
+        let nu = self.nu;
+        let mut hw = MatrixN::<NU, NU>::zeros_generic(nu, nu); // columns H^{-1} a_w
+        let mut s = MatrixN::<NU, NU>::identity_generic(nu, nu);
+        let mut rhs = VectorN::<NU>::zeros_generic(nu, U1);
         for (c, &i) in self.working.iter().enumerate() {
-            let (ai, _) = Self::row(a, b, trust, i);
+            let (ai, _) = Self::row(self.nu, a, b, trust, i);
             hw.set_column(c, &chol.solve(&ai));
         }
         for (r, &i) in self.working.iter().enumerate() {
-            let (ai, bi) = Self::row(a, b, trust, i);
+            let (ai, bi) = Self::row(self.nu, a, b, trust, i);
             for c in 0..m {
                 s[(r, c)] = ai.dot(&hw.column(c));
             }
@@ -345,30 +369,30 @@ impl<const NU: usize> StepQp<NU> {
             }
         }
         *lambda = s_chol.solve(&rhs);
-        for r in m..NU {
+        for r in m..nu.value() {
             lambda[r] = 0.0;
         }
-        Some(-hq - hw * *lambda)
+        Some(-hq - hw * &*lambda)
     }
 
     /// A primal active-set method from the working set `guess`. Returns the KKT point or `None`.
     fn active_set(
         &mut self,
-        chol: &nalgebra::Cholesky<f64, nalgebra::Const<NU>>,
-        q: &Vector<NU>,
-        a: &[Vector<NU>],
+        chol: &Cholesky<f64, NU>,
+        q: &VectorN<NU>,
+        a: &[VectorN<NU>],
         b: &[f64],
         trust: f64,
         guess: &[usize],
-    ) -> Option<Vector<NU>> {
+    ) -> Option<VectorN<NU>> {
         self.working.clear();
-        for &i in guess.iter().take(NU) {
+        for &i in guess.iter().take(self.nu.value()) {
             if i < a.len() {
                 self.working.push(i);
             }
         }
-        let n_rows = Self::n_rows(a, trust);
-        let mut lambda = Vector::<NU>::zeros();
+        let n_rows = self.n_rows(a, trust);
+        let mut lambda = VectorN::<NU>::zeros_generic(self.nu, U1);
         for _ in 0..ACTIVE_SET_ITERATIONS {
             let du = self.equality_qp(chol, q, a, b, trust, &mut lambda)?;
             // Drop the most negative multiplier first.
@@ -388,7 +412,7 @@ impl<const NU: usize> StepQp<NU> {
                 if self.working.contains(&i) {
                     continue;
                 }
-                let (ai, bi) = Self::row(a, b, trust, i);
+                let (ai, bi) = Self::row(self.nu, a, b, trust, i);
                 let v = (ai.dot(&du) - bi) / (1.0 + bi.abs());
                 if v > FEAS_TOL && v > add.1 {
                     add = (i, v);
@@ -397,7 +421,7 @@ impl<const NU: usize> StepQp<NU> {
             if add.0 == usize::MAX {
                 return Some(du);
             }
-            if self.working.len() == NU {
+            if self.working.len() == self.nu.value() {
                 return None;
             }
             self.working.push(add.0);
@@ -407,21 +431,21 @@ impl<const NU: usize> StepQp<NU> {
 
     fn clarabel_solve(
         &mut self,
-        chol: &nalgebra::Cholesky<f64, nalgebra::Const<NU>>,
-        h: &Matrix<NU, NU>,
-        q: &Vector<NU>,
-        a: &[Vector<NU>],
+        chol: &Cholesky<f64, NU>,
+        h: &MatrixN<NU, NU>,
+        q: &VectorN<NU>,
+        a: &[VectorN<NU>],
         b: &[f64],
         trust: f64,
     ) -> QpOutcome<NU> {
         self.stats.clarabel += 1;
-        let n_rows = Self::n_rows(a, trust);
+        let n_rows = self.n_rows(a, trust);
         let status = self.clarabel.solve(
             |i, j| h[(i, j)],
             |j| q[j],
             |i, out| {
                 if i < n_rows {
-                    let (ai, bi) = Self::row(a, b, trust, i);
+                    let (ai, bi) = Self::row(self.nu, a, b, trust, i);
                     out.copy_from_slice(ai.as_slice());
                     bi
                 } else {
@@ -437,7 +461,7 @@ impl<const NU: usize> StepQp<NU> {
         match status {
             SolverStatus::Solved | SolverStatus::AlmostSolved => {
                 let sol = &self.clarabel.solver.solution;
-                let du = Vector::<NU>::from_fn(|j, _| sol.x[j]);
+                let du = VectorN::<NU>::from_fn_generic(self.nu, U1, |j, _| sol.x[j]);
                 // Polish: an exact solve on the rows Clarabel found active, kept if it is a KKT point.
                 self.working.clear();
                 let mut order: [(f64, usize); 64] = [(0.0, usize::MAX); 64];
@@ -449,10 +473,10 @@ impl<const NU: usize> StepQp<NU> {
                     }
                 }
                 order[..count].sort_unstable_by(|x, y| y.0.total_cmp(&x.0));
-                for &(_, i) in order[..count].iter().take(NU) {
+                for &(_, i) in order[..count].iter().take(self.nu.value()) {
                     self.working.push(i);
                 }
-                let mut lambda = Vector::<NU>::zeros();
+                let mut lambda = VectorN::<NU>::zeros_generic(self.nu, U1);
                 if let Some(polished) = self.equality_qp(chol, q, a, b, trust, &mut lambda) {
                     let dual_ok = (0..self.working.len()).all(|r| lambda[r] >= -1e-9);
                     if dual_ok && max_violation(&polished, a, b, trust) <= 1e-9 {
@@ -478,30 +502,31 @@ impl<const NU: usize> StepQp<NU> {
     /// `du` and `s`.
     pub fn solve_elastic(
         &mut self,
-        h: &Matrix<NU, NU>,
-        q: &Vector<NU>,
-        a: &[Vector<NU>],
+        h: &MatrixN<NU, NU>,
+        q: &VectorN<NU>,
+        a: &[VectorN<NU>],
         b: &[f64],
         soft: usize,
         trust: f64,
         penalty: f64,
-    ) -> Option<(Vector<NU>, f64)> {
+    ) -> Option<(VectorN<NU>, f64)> {
         assert!(a.len() <= self.max_rows && a.len() == b.len() && soft <= a.len());
         self.stats.elastic += 1;
-        let n_rows = Self::n_rows(a, trust);
+        let n_rows = self.n_rows(a, trust);
+        let nu = self.nu.value();
         let status = self.elastic.solve(
-            |i, j| if i < NU && j < NU { h[(i, j)] } else { 0.0 },
-            |j| if j < NU { q[j] } else { penalty },
+            |i, j| if i < nu && j < nu { h[(i, j)] } else { 0.0 },
+            |j| if j < nu { q[j] } else { penalty },
             |i, out| {
                 if i < n_rows {
-                    let (ai, bi) = Self::row(a, b, trust, i);
-                    out[..NU].copy_from_slice(ai.as_slice());
+                    let (ai, bi) = Self::row(self.nu, a, b, trust, i);
+                    out[..nu].copy_from_slice(ai.as_slice());
                     if i < soft {
-                        out[NU] = -1.0;
+                        out[nu] = -1.0;
                     }
                     bi
                 } else if i == n_rows {
-                    out[NU] = -1.0; // -s <= 0
+                    out[nu] = -1.0; // -s <= 0
                     0.0
                 } else {
                     1.0
@@ -512,7 +537,7 @@ impl<const NU: usize> StepQp<NU> {
         match status {
             Ok(SolverStatus::Solved | SolverStatus::AlmostSolved) => {
                 let x = &self.elastic.solver.solution.x;
-                Some((Vector::<NU>::from_fn(|j, _| x[j]), x[NU].max(0.0)))
+                Some((VectorN::<NU>::from_fn_generic(self.nu, U1, |j, _| x[j]), x[nu].max(0.0)))
             }
             _ => {
                 self.stats.failed += 1;
@@ -524,7 +549,10 @@ impl<const NU: usize> StepQp<NU> {
 
 /// Largest scaled violation `(a_i^T du - b_i) / (1 + |b_i|)` minus the tolerance, over the rows
 /// and the trust region (`<= 0` means feasible).
-fn max_violation<const NU: usize>(du: &Vector<NU>, a: &[Vector<NU>], b: &[f64], trust: f64) -> f64 {
+fn max_violation<NU: Dim>(du: &VectorN<NU>, a: &[VectorN<NU>], b: &[f64], trust: f64) -> f64
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
     let mut worst = f64::NEG_INFINITY;
     for (ai, &bi) in a.iter().zip(b) {
         worst = worst.max((ai.dot(du) - bi) / (1.0 + bi.abs()) - FEAS_TOL);
@@ -538,6 +566,8 @@ fn max_violation<const NU: usize>(du: &Vector<NU>, a: &[Vector<NU>], b: &[f64], 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use ddp_core::dims::U2;
+    use ddp_core::{Matrix, Vector};
 
     /// min 1/2 |du|^2 - du_0 - du_1  s.t. du_0 + du_1 <= 1: the optimum is (1/2, 1/2) with
     /// multiplier 1/2 (by symmetry and stationarity `du - (1, 1) + lambda (1, 1) = 0`).
@@ -554,7 +584,7 @@ mod tests {
     fn every_method_finds_the_hand_optimum() {
         let (h, q, a, b) = hand_qp();
         for method in [QpMethod::Fast, QpMethod::Clarabel] {
-            let mut qp = StepQp::<2>::new(4, method).unwrap();
+            let mut qp = StepQp::new(U2, 4, method).unwrap();
             for guess in [&[][..], &[0][..]] {
                 match qp.solve(&h, &q, &a, &b, f64::INFINITY, guess) {
                     QpOutcome::Solved(du, _) => assert!((du - Vector::<2>::new(0.5, 0.5)).amax() < 1e-9, "{du}"),
@@ -569,7 +599,7 @@ mod tests {
         // Unconstrained optimum (1, 1); a trust region of 0.25 clips both components.
         let (h, q, _, _) = hand_qp();
         for method in [QpMethod::Fast, QpMethod::Clarabel] {
-            let mut qp = StepQp::<2>::new(2, method).unwrap();
+            let mut qp = StepQp::new(U2, 2, method).unwrap();
             match qp.solve(&h, &q, &[], &[], 0.25, &[]) {
                 QpOutcome::Solved(du, _) => assert!((du - Vector::<2>::new(0.25, 0.25)).amax() < 1e-9),
                 other => panic!("{other:?}"),
@@ -583,7 +613,7 @@ mod tests {
         let h = Matrix::<2, 2>::identity();
         let a = [Vector::<2>::new(1.0, 0.0), Vector::<2>::new(-1.0, 0.0)];
         let b = [-1.0, -1.0];
-        let mut qp = StepQp::<2>::new(2, QpMethod::Fast).unwrap();
+        let mut qp = StepQp::new(U2, 2, QpMethod::Fast).unwrap();
         assert_eq!(
             qp.solve(&h, &Vector::zeros(), &a, &b, f64::INFINITY, &[]),
             QpOutcome::Infeasible

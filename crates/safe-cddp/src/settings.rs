@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use ddp_core::{Error, Method, Result};
+use ddp_core::{Error, LineSearchSettings, Method, RegularizationSettings, Result, Tolerances};
 
 use crate::qp::{QpMethod, QpStats};
 
@@ -13,30 +13,17 @@ pub struct Settings {
     pub method: Method,
     /// Maximum number of iterations of [`crate::SafeCddpSolver::solve`].
     pub max_iterations: usize,
-    /// Converged when the projected gradient `sum_k |Q_u + C_W^T lambda|^2` falls below this and the
-    /// trajectory is feasible.
-    pub gradient_tolerance: f64,
-    /// Converged when an accepted step changes the merit by less than this, relative to `1 + |J|`,
-    /// and the trajectory is feasible.
-    pub cost_tolerance: f64,
+    /// Stopping tests: the projected gradient `sum_k |Q_u + C_W^T lambda|^2` (`gradient`) and the
+    /// relative merit change of an accepted step (`cost`), each on a feasible trajectory.
+    pub tolerances: Tolerances,
     /// A trajectory is feasible when no (tightened) row exceeds this.
     pub constraint_tolerance: f64,
     /// `epsilon` of the active set: a row with `g~ > -epsilon` enters the backward pass (Xie et al.).
     pub active_threshold: f64,
-    /// Initial regularisation `mu` of `Q_uu + mu I`.
-    pub mu_init: f64,
-    /// Smallest non-zero `mu`.
-    pub mu_min: f64,
-    /// Largest `mu` before giving up.
-    pub mu_max: f64,
-    /// Tassa's factor `Delta_0` (> 1).
-    pub mu_factor: f64,
-    /// Line-search step reduction in (0, 1).
-    pub step_factor: f64,
-    /// Smallest step tried.
-    pub step_min: f64,
-    /// Armijo fraction of the expected decrease that a step must achieve.
-    pub armijo: f64,
+    /// Regularisation `mu` of `Q_uu + mu I` and its schedule (shared with [`ddp_core::Solver`]).
+    pub regularization: RegularizationSettings,
+    /// Line search on the merit (shared with [`ddp_core::Solver`]).
+    pub line_search: LineSearchSettings,
     /// `rho` of the merit `J + rho sum max(0, g~)` used by the line search.
     pub merit_penalty: f64,
     /// Initial trust-region radius `Delta` on `|du_j|` (infinite: none).
@@ -88,17 +75,15 @@ impl Default for Settings {
         Self {
             method: Method::Ilqr,
             max_iterations: 200,
-            gradient_tolerance: 1e-12,
-            cost_tolerance: 1e-12,
+            // Tighter than ddp-core's: the KKT/QP iterations converge fast near the optimum.
+            tolerances: Tolerances {
+                gradient: 1e-12,
+                cost: 1e-12,
+            },
             constraint_tolerance: 1e-8,
             active_threshold: 1e-6,
-            mu_init: 0.0,
-            mu_min: 1e-9,
-            mu_max: 1e10,
-            mu_factor: 1.6,
-            step_factor: 0.5,
-            step_min: 1.0 / 1024.0,
-            armijo: 1e-4,
+            regularization: RegularizationSettings::default(),
+            line_search: LineSearchSettings::default(),
             merit_penalty: 1e3,
             trust_region: f64::INFINITY,
             trust_shrink: 0.5,
@@ -142,18 +127,9 @@ impl Settings {
         if self.max_relative_degree == 0 {
             return Err(Error::invalid("settings.max_relative_degree", "must be at least 1"));
         }
-        check(
-            "gradient_tolerance",
-            finite_nonneg(self.gradient_tolerance),
-            self.gradient_tolerance,
-            "finite and >= 0",
-        )?;
-        check(
-            "cost_tolerance",
-            finite_nonneg(self.cost_tolerance),
-            self.cost_tolerance,
-            "finite and >= 0",
-        )?;
+        self.tolerances.validate()?;
+        self.regularization.validate()?;
+        self.line_search.validate()?;
         check(
             "constraint_tolerance",
             finite_nonneg(self.constraint_tolerance),
@@ -165,38 +141,6 @@ impl Settings {
             finite_nonneg(self.active_threshold),
             self.active_threshold,
             "finite and >= 0",
-        )?;
-        check("mu_init", finite_nonneg(self.mu_init), self.mu_init, "finite and >= 0")?;
-        check("mu_min", finite_pos(self.mu_min), self.mu_min, "finite and > 0")?;
-        check(
-            "mu_max",
-            finite_pos(self.mu_max) && self.mu_max >= self.mu_min,
-            self.mu_max,
-            "finite and >= mu_min",
-        )?;
-        check(
-            "mu_factor",
-            self.mu_factor.is_finite() && self.mu_factor > 1.0,
-            self.mu_factor,
-            "> 1",
-        )?;
-        check(
-            "step_factor",
-            self.step_factor > 0.0 && self.step_factor < 1.0,
-            self.step_factor,
-            "in (0, 1)",
-        )?;
-        check(
-            "step_min",
-            self.step_min > 0.0 && self.step_min <= 1.0,
-            self.step_min,
-            "in (0, 1]",
-        )?;
-        check(
-            "armijo",
-            self.armijo >= 0.0 && self.armijo < 1.0,
-            self.armijo,
-            "in [0, 1)",
         )?;
         check(
             "merit_penalty",
@@ -346,6 +290,9 @@ pub struct Report {
     pub tightenings: usize,
     /// QP counters (all forward passes of the solve).
     pub qp: QpStats,
+    /// Iterations not logged because `log` was full (its capacity is `max_iterations + 1`; an
+    /// MPC that drives [`crate::SafeCddpSolver::iterate`] by hand may go past it).
+    pub log_dropped: usize,
     /// Wall time of the solve.
     pub solve_time: Duration,
     /// One row per iteration.
@@ -368,6 +315,7 @@ impl Report {
             infeasible_forward_passes: 0,
             tightenings: 0,
             qp: QpStats::default(),
+            log_dropped: 0,
             solve_time: Duration::ZERO,
             log: Vec::with_capacity(capacity),
         }
@@ -394,6 +342,9 @@ impl Report {
                 if r.tightened { "  tightened" } else { "" },
                 if r.warm_up { "  al" } else { "" },
             ));
+        }
+        if self.log_dropped > 0 {
+            s.push_str(&format!("({} more iterations not logged)\n", self.log_dropped));
         }
         s.push_str(&format!(
             "status: {}, iterations: {}, cost: {:.12e}, max violation: {:.3e}\n",

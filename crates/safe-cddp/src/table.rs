@@ -28,7 +28,8 @@
 //! # Ok::<(), ddp_core::Error>(())
 //! ```
 
-use nalgebra::Const;
+use ddp_core::dims::{U12, U4};
+use ddp_core::dims::Const;
 use std::sync::Arc;
 
 use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
@@ -124,7 +125,7 @@ pub struct Scenario<const NX: usize, const NU: usize> {
     /// The deterministic problem (initial state, dynamics, cost, control box, horizon).
     pub problem: Problem<Const<NX>, Const<NU>>,
     /// The obstacles as constraint rows.
-    pub constraints: Vec<Arc<dyn Constraint<NX, NU>>>,
+    pub constraints: Vec<Arc<dyn Constraint<Const<NX>, Const<NU>>>>,
     /// The obstacles for collision counting and figures.
     pub obstacles: Vec<Obstacle>,
     /// Process noise `Sigma_w` (also what the tightening assumes).
@@ -132,7 +133,7 @@ pub struct Scenario<const NX: usize, const NU: usize> {
     /// Solver settings.
     pub settings: Settings,
     /// MPC settings (`n1`, goal region).
-    pub mpc: MpcSettings<NX>,
+    pub mpc: MpcSettings<Const<NX>>,
     /// `n2`: tightening period.
     pub update_every: usize,
     /// The fixed gain of the cautious-MPC baseline: LQR of the dynamics linearised at the goal.
@@ -166,7 +167,7 @@ fn solver_settings() -> Settings {
     }
 }
 
-fn mpc_settings<const NX: usize>(goal: Vector<NX>, goal_indices: Vec<usize>, radius: f64) -> MpcSettings<NX> {
+fn mpc_settings<const NX: usize>(goal: Vector<NX>, goal_indices: Vec<usize>, radius: f64) -> MpcSettings<Const<NX>> {
     MpcSettings {
         iterations: 10,
         initial_iterations: 300,
@@ -194,13 +195,13 @@ fn lqr_at<const NX: usize, const NU: usize>(
 }
 
 /// Constraint rows and their obstacles.
-type Rows<const NX: usize, const NU: usize> = (Vec<Arc<dyn Constraint<NX, NU>>>, Vec<Obstacle>);
+type Rows<const NX: usize, const NU: usize> = (Vec<Arc<dyn Constraint<Const<NX>, Const<NU>>>>, Vec<Obstacle>);
 
 fn circles<const NX: usize, const NU: usize>(discs: &[[f64; 3]]) -> Result<Rows<NX, NU>> {
-    let mut rows: Vec<Arc<dyn Constraint<NX, NU>>> = Vec::new();
+    let mut rows: Vec<Arc<dyn Constraint<Const<NX>, Const<NU>>>> = Vec::new();
     let mut obstacles = Vec::new();
     for d in discs {
-        rows.push(Arc::new(Circle::<NX>::squared([d[0], d[1]], d[2], [0, 1])?));
+        rows.push(Arc::new(Circle::<Const<NX>>::squared([d[0], d[1]], d[2], [0, 1])?));
         obstacles.push(Obstacle {
             center: [d[0], d[1]],
             radius: d[2],
@@ -315,7 +316,7 @@ pub fn quadrotor(noise: f64) -> Result<Scenario<12, 4>> {
         Vector::<4>::new(2.0 * hover[0], 0.05, 0.05, 0.02),
     )?)?;
     let cylinders = [[1.0, 0.05, 0.25, 3.0], [2.0, 0.0, 0.3, 1.38]];
-    let mut constraints: Vec<Arc<dyn Constraint<12, 4>>> = Vec::new();
+    let mut constraints: Vec<Arc<dyn Constraint<U12, U4>>> = Vec::new();
     let mut obstacles = Vec::new();
     for c in cylinders {
         constraints.push(Arc::new(Cylinder::<12>::new(
@@ -386,7 +387,7 @@ impl Method {
     fn tightening<const NX: usize, const NU: usize>(
         &self,
         sc: &Scenario<NX, NU>,
-    ) -> Result<Option<Tightening<NX, NU>>> {
+    ) -> Result<Option<Tightening<Const<NX>, Const<NU>>>> {
         let (beta, gains) = match *self {
             Method::Cddp => return Ok(None),
             Method::SafeCddp { beta } => (beta, Gains::ClosedLoop),
@@ -402,7 +403,7 @@ impl Method {
 }
 
 /// The MPC of `method` on `scenario` (allocates the solver).
-pub fn mpc<const NX: usize, const NU: usize>(sc: &Scenario<NX, NU>, method: Method) -> Result<Mpc<NX, NU>> {
+pub fn mpc<const NX: usize, const NU: usize>(sc: &Scenario<NX, NU>, method: Method) -> Result<Mpc<Const<NX>, Const<NU>>> {
     Mpc::new(
         &sc.problem,
         sc.constraints.clone(),
@@ -460,7 +461,7 @@ pub fn run_episode<const NX: usize, const NU: usize>(
 /// Runs one episode on an MPC made by [`mpc`] (reusing its workspace).
 pub fn run_episode_with<const NX: usize, const NU: usize>(
     sc: &Scenario<NX, NU>,
-    m: &mut Mpc<NX, NU>,
+    m: &mut Mpc<Const<NX>, Const<NU>>,
     seed: u64,
 ) -> Result<EpisodeOutcome> {
     let e = m.run_episode(seed)?;

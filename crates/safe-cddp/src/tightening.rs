@@ -26,13 +26,17 @@
 
 use ddp_core::costs::check_psd;
 use ddp_core::error::check_finite;
-use ddp_core::{Error, Matrix, Result, Vector};
+use ddp_core::dims::{Alloc, DefaultAllocator, Dim, MatrixN, VectorN};
+use ddp_core::{Error, Matrix, Result};
 
 use crate::quantile::normal_quantile;
 
 /// Which feedback gains the covariance propagation uses.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Gains<const NX: usize, const NU: usize> {
+#[derive(Debug, Clone, PartialEq)]
+pub enum Gains<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     /// Safe-CDDP (the default): the feedback gains `K_k` of the DDP backward pass at the current
     /// trajectory, eqs. (10)-(12) with the control bounds as the only rows of the working set (a
     /// control at its bound gives no feedback). The state-constraint rows are left out on
@@ -49,34 +53,48 @@ pub enum Gains<const NX: usize, const NU: usize> {
     /// `K = 0`: open-loop propagation (the most conservative baseline).
     OpenLoop,
     /// One fixed gain at every knot (e.g. LQR at the goal; cautious MPC).
-    Fixed(Matrix<NU, NX>),
+    Fixed(MatrixN<NU, NX>),
 }
 
 /// The chance-constraint tightening: `beta`, the process noise `Sigma_w`, the initial covariance,
 /// the gains and the update period `n2` of Algorithm 1.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Tightening<const NX: usize, const NU: usize> {
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tightening<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     beta: f64,
     z: f64,
-    sigma_w: Matrix<NX, NX>,
-    sigma_0: Matrix<NX, NX>,
+    sigma_w: MatrixN<NX, NX>,
+    sigma_0: MatrixN<NX, NX>,
     gains: Gains<NX, NU>,
     update_every: usize,
 }
 
-impl<const NX: usize, const NU: usize> Tightening<NX, NU> {
+impl<NX: Dim, NU: Dim> Tightening<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     /// Satisfaction probability `beta` in (0, 1) and process-noise covariance `sigma_w`
     /// (symmetric PSD). Defaults: closed-loop gains, `Sigma_0 = 0` (the state is measured),
     /// tightening every `n2 = 5` iterations.
-    pub fn new(beta: f64, sigma_w: Matrix<NX, NX>) -> Result<Self> {
+    pub fn new(beta: f64, sigma_w: MatrixN<NX, NX>) -> Result<Self> {
         let z =
             normal_quantile(beta).ok_or_else(|| Error::invalid("beta", format!("must be in (0, 1), got {beta}")))?;
+        if sigma_w.nrows() != sigma_w.ncols() {
+            return Err(Error::Shape {
+                field: "sigma_w".into(),
+                got: format!("({}, {})", sigma_w.nrows(), sigma_w.ncols()),
+                expected: "a square matrix".into(),
+            });
+        }
         check_psd("sigma_w", &sigma_w)?;
+        let (r, c) = sigma_w.shape_generic();
         Ok(Self {
             beta,
             z,
+            sigma_0: MatrixN::zeros_generic(r, c),
             sigma_w,
-            sigma_0: Matrix::zeros(),
             gains: Gains::ClosedLoop,
             update_every: 5,
         })
@@ -90,7 +108,14 @@ impl<const NX: usize, const NU: usize> Tightening<NX, NU> {
         Ok(self)
     }
     /// Starts the propagation from `sigma_0` (symmetric PSD) instead of zero.
-    pub fn with_initial_covariance(mut self, sigma_0: Matrix<NX, NX>) -> Result<Self> {
+    pub fn with_initial_covariance(mut self, sigma_0: MatrixN<NX, NX>) -> Result<Self> {
+        if sigma_0.shape() != self.sigma_w.shape() {
+            return Err(Error::Shape {
+                field: "sigma_0".into(),
+                got: format!("{:?}", sigma_0.shape()),
+                expected: format!("{:?} like sigma_w", self.sigma_w.shape()),
+            });
+        }
         check_psd("sigma_0", &sigma_0)?;
         self.sigma_0 = sigma_0;
         Ok(self)
@@ -112,11 +137,11 @@ impl<const NX: usize, const NU: usize> Tightening<NX, NU> {
         self.z
     }
     /// `Sigma_w`.
-    pub fn sigma_w(&self) -> &Matrix<NX, NX> {
+    pub fn sigma_w(&self) -> &MatrixN<NX, NX> {
         &self.sigma_w
     }
     /// `Sigma_0`.
-    pub fn sigma_0(&self) -> &Matrix<NX, NX> {
+    pub fn sigma_0(&self) -> &MatrixN<NX, NX> {
         &self.sigma_0
     }
     /// The gains.
@@ -127,38 +152,64 @@ impl<const NX: usize, const NU: usize> Tightening<NX, NU> {
     pub fn update_every(&self) -> usize {
         self.update_every
     }
+    /// Checks that the covariances and a fixed gain fit `nx` states and `nu` controls, naming
+    /// the field (the solver calls this when the tightening is set).
+    pub fn check_sizes(&self, nx: usize, nu: usize) -> Result<()> {
+        if self.sigma_w.nrows() != nx {
+            return Err(Error::Shape {
+                field: "tightening.sigma_w".into(),
+                got: format!("({0}, {0})", self.sigma_w.nrows()),
+                expected: format!("({nx}, {nx})"),
+            });
+        }
+        if let Gains::Fixed(k) = &self.gains {
+            if k.shape() != (nu, nx) {
+                return Err(Error::Shape {
+                    field: "tightening.gains".into(),
+                    got: format!("{:?}", k.shape()),
+                    expected: format!("({nu}, {nx})"),
+                });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Eq. (19) along a horizon of `fx.len()` knots: writes `sigma[0] = sigma_0` and
 /// `sigma[k+1] = A_k sigma[k] A_k^T + sigma_w` with `A_k = fx[k] + fu[k] K_k`, where `K_k` is
 /// `closed_loop[k]` for [`Gains::ClosedLoop`] and [`Gains::ActiveSet`] (the caller's per-knot
 /// gains). `sigma` needs `fx.len() + 1` entries.
-pub fn propagate_covariance<const NX: usize, const NU: usize>(
-    fx: &[Matrix<NX, NX>],
-    fu: &[Matrix<NX, NU>],
+pub fn propagate_covariance<NX: Dim, NU: Dim>(
+    fx: &[MatrixN<NX, NX>],
+    fu: &[MatrixN<NX, NU>],
     gains: &Gains<NX, NU>,
-    closed_loop: &[Matrix<NU, NX>],
-    sigma_0: &Matrix<NX, NX>,
-    sigma_w: &Matrix<NX, NX>,
-    sigma: &mut [Matrix<NX, NX>],
-) {
+    closed_loop: &[MatrixN<NU, NX>],
+    sigma_0: &MatrixN<NX, NX>,
+    sigma_w: &MatrixN<NX, NX>,
+    sigma: &mut [MatrixN<NX, NX>],
+) where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     let n = fx.len();
-    sigma[0] = *sigma_0;
+    sigma[0].copy_from(sigma_0);
     for k in 0..n {
         let a = match gains {
-            Gains::ClosedLoop | Gains::ActiveSet => fx[k] + fu[k] * closed_loop[k],
-            Gains::OpenLoop => fx[k],
-            Gains::Fixed(gain) => fx[k] + fu[k] * gain,
+            Gains::ClosedLoop | Gains::ActiveSet => &fx[k] + &fu[k] * &closed_loop[k],
+            Gains::OpenLoop => fx[k].clone(),
+            Gains::Fixed(gain) => &fx[k] + &fu[k] * gain,
         };
-        let next = a * sigma[k] * a.transpose() + sigma_w;
-        sigma[k + 1] = 0.5 * (next + next.transpose());
+        let next = &a * &sigma[k] * a.transpose() + sigma_w;
+        sigma[k + 1] = (&next + next.transpose()) * 0.5;
     }
 }
 
 /// The margin of eq. (20), `z sqrt(g_x^T Sigma g_x + extra_variance)` (the variance is clipped
 /// at zero against round-off).
 #[inline]
-pub fn margin<const NX: usize>(z: f64, g_x: &Vector<NX>, sigma: &Matrix<NX, NX>, extra_variance: f64) -> f64 {
+pub fn margin<NX: Dim>(z: f64, g_x: &VectorN<NX>, sigma: &MatrixN<NX, NX>, extra_variance: f64) -> f64
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
     z * (g_x.dot(&(sigma * g_x)) + extra_variance).max(0.0).sqrt()
 }
 
@@ -222,13 +273,13 @@ mod tests {
 
     #[test]
     fn margin_is_zero_at_median() {
-        let t = Tightening::<2, 1>::new(0.5, Matrix::identity()).unwrap();
+        let t = Tightening::<ddp_core::dims::U2, ddp_core::dims::U1>::new(0.5, Matrix::identity()).unwrap();
         assert_eq!(t.quantile(), 0.0);
         assert_eq!(
-            margin(t.quantile(), &Vector::<2>::new(1.0, 2.0), &Matrix::identity(), 0.3),
+            margin(t.quantile(), &ddp_core::Vector::<2>::new(1.0, 2.0), &Matrix::identity(), 0.3),
             0.0
         );
-        assert!(Tightening::<2, 1>::new(1.0, Matrix::identity()).is_err());
-        assert!(Tightening::<2, 1>::new(0.9, -Matrix::identity()).is_err());
+        assert!(Tightening::<ddp_core::dims::U2, ddp_core::dims::U1>::new(1.0, Matrix::identity()).is_err());
+        assert!(Tightening::<ddp_core::dims::U2, ddp_core::dims::U1>::new(0.9, -Matrix::identity()).is_err());
     }
 }

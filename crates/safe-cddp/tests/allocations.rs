@@ -4,6 +4,7 @@
 //! QP handed to Clarabel are allowed. (One test in this binary, so no other test thread allocates
 //! while counting.)
 
+use ddp_core::dims::{U2, U4};
 use std::sync::Arc;
 
 use ddp_core::{Matrix, Vector};
@@ -40,7 +41,7 @@ fn repeated_solves_tightenings_and_mpc_steps_allocate_nothing() {
     // The same with chance-constraint tightening (eqs. 19-20, bounds-only gains) and a
     // shrinking-horizon MPC loop: shift, shorter horizon, new x0, iterations and tightenings.
     let sigma_w = Matrix::<4, 4>::from_diagonal(&Vector::<4>::new(1e-5, 1e-5, 4e-5, 4e-5));
-    solver.set_tightening(Some(Tightening::new(0.95, sigma_w).unwrap()));
+    solver.set_tightening(Some(Tightening::new(0.95, sigma_w).unwrap())).unwrap();
     let mut mpc_problem = problem.clone();
     solver.reset();
     solver.solve(&mpc_problem).unwrap();
@@ -71,12 +72,12 @@ fn repeated_solves_tightenings_and_mpc_steps_allocate_nothing() {
     // A car among two discs (relative degree 2), repeated warm solves after a tightening.
     let p2 = BenchmarkProblem::from_file(problems_dir().join("p2_car4.json")).unwrap();
     let (problem, _) = p2.car_or_point().unwrap();
-    let discs: Vec<Arc<dyn Constraint<4, 2>>> = vec![
+    let discs: Vec<Arc<dyn Constraint<U4, U2>>> = vec![
         Arc::new(Circle::squared([1.3, 0.25], 0.3, [0, 1]).unwrap()),
         Arc::new(Circle::squared([2.7, -0.25], 0.3, [0, 1]).unwrap()),
     ];
     let mut solver = SafeCddpSolver::new(&problem, discs, Settings::default()).unwrap();
-    solver.set_tightening(Some(Tightening::new(0.99, sigma_w).unwrap()));
+    solver.set_tightening(Some(Tightening::new(0.99, sigma_w).unwrap())).unwrap();
     solver.solve(&problem).unwrap();
     let mut clarabel = 0;
     let n = count(|| {

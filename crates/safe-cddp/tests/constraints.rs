@@ -1,5 +1,6 @@
 //! Every built-in constraint's Jacobians against central differences, by one generic loop.
 
+use ddp_core::dims::{U2, U4};
 use std::sync::Arc;
 
 use ddp_core::{Matrix, Vector};
@@ -9,7 +10,7 @@ use safe_cddp::constraints::{
 };
 use safe_cddp::{check_constraint_derivatives, Constraint};
 
-fn all_constraints() -> Vec<(&'static str, Arc<dyn Constraint<4, 2>>, bool)> {
+fn all_constraints() -> Vec<(&'static str, Arc<dyn Constraint<U4, U2>>, bool)> {
     // (name, constraint, whether add_hessian is implemented)
     vec![
         (
@@ -118,23 +119,23 @@ fn polygon_signed_distance_is_exact() {
 
 #[test]
 fn bad_constraint_input_is_rejected_with_the_field() {
-    let e = Circle::<4>::squared([f64::NAN, 0.0], 1.0, [0, 1])
+    let e = Circle::<U4>::squared([f64::NAN, 0.0], 1.0, [0, 1])
         .unwrap_err()
         .to_string();
     assert!(e.contains("center"), "{e}");
-    let e = Circle::<4>::squared([0.0, 0.0], -1.0, [0, 1]).unwrap_err().to_string();
+    let e = Circle::<U4>::squared([0.0, 0.0], -1.0, [0, 1]).unwrap_err().to_string();
     assert!(e.contains("radius"), "{e}");
-    let e = Circle::<4>::squared([0.0, 0.0], 1.0, [0, 7]).unwrap_err().to_string();
+    let e = Circle::<U4>::squared([0.0, 0.0], 1.0, [0, 7]).unwrap_err().to_string();
     assert!(e.contains("indices[1]"), "{e}");
     let e = ConvexPolygon::<4>::new(&[[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], 0.0, [0, 1])
         .unwrap_err()
         .to_string();
     assert!(e.contains("vertices"), "{e}");
-    let e = StateBox::<4>::new(Vector::repeat(1.0), Vector::repeat(0.0))
+    let e = StateBox::<U4>::new(Vector::repeat(1.0), Vector::repeat(0.0))
         .unwrap_err()
         .to_string();
     assert!(e.contains("x_min[0]"), "{e}");
-    let e = MovingCircle::<4>::new(vec![[0.0, 0.0]], vec![], 1.0, [0, 1], Default::default())
+    let e = MovingCircle::<U4>::new(vec![[0.0, 0.0]], vec![], 1.0, [0, 1], Default::default())
         .unwrap_err()
         .to_string();
     assert!(e.contains("covariances"), "{e}");

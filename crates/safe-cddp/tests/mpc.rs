@@ -1,5 +1,6 @@
 //! The MPC loop of Algorithm 1: determinism for a seed, and a crossing-obstacle scenario.
 
+use ddp_core::dims::{U2, U4};
 use std::sync::Arc;
 
 use ddp_core::{reference, Matrix, Vector};
@@ -7,9 +8,9 @@ use safe_cddp::constraints::Circle;
 use safe_cddp::mpc::{MovingObstacle, Mpc, MpcSettings};
 use safe_cddp::{Constraint, Settings, Tightening};
 
-fn point_mpc(beta: Option<f64>, moving: Vec<MovingObstacle>) -> Mpc<4, 2> {
+fn point_mpc(beta: Option<f64>, moving: Vec<MovingObstacle>) -> Mpc<U4, U2> {
     let problem = reference::point_reach();
-    let obstacles: Vec<Arc<dyn Constraint<4, 2>>> = vec![
+    let obstacles: Vec<Arc<dyn Constraint<U4, U2>>> = vec![
         Arc::new(Circle::squared([1.0, 1.1], 0.4, [0, 1]).unwrap()),
         Arc::new(Circle::squared([2.0, 1.9], 0.4, [0, 1]).unwrap()),
     ];
@@ -94,12 +95,12 @@ fn moving_obstacle_margin_is_the_quantile_times_its_predicted_position_std() {
     let problem = reference::point_reach();
     let n = problem.horizon();
     let kf = ObstacleTracker::new(0.05, 0.2, 0.01, [1.5, 0.2], [0.0, 0.5], 0.01, 0.1).unwrap();
-    let circle = kf.moving_circle::<4>(n, 0.25, [0, 1], CircleForm::Distance).unwrap();
-    let constraint: Arc<dyn Constraint<4, 2>> = Arc::new(circle);
+    let circle = kf.moving_circle::<U4>(n, 0.25, [0, 1], CircleForm::Distance).unwrap();
+    let constraint: Arc<dyn Constraint<U4, U2>> = Arc::new(circle);
     let mut solver = SafeCddpSolver::new(&problem, vec![constraint], Settings::default()).unwrap();
     solver.solve(&problem).unwrap();
     let beta = 0.95;
-    solver.set_tightening(Some(Tightening::new(beta, Matrix::<4, 4>::zeros()).unwrap()));
+    solver.set_tightening(Some(Tightening::new(beta, Matrix::<4, 4>::zeros()).unwrap())).unwrap();
     solver.tighten(&problem).unwrap();
 
     let z = normal_quantile(beta).unwrap();

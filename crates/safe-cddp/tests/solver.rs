@@ -1,6 +1,7 @@
 //! The constrained solver: agreement with ddp-core without constraints, the benchmark problems
 //! P2 and P3 against the peers' optima, and statuses.
 
+use ddp_core::dims::{U2, U3, U4};
 use std::sync::Arc;
 
 use ddp_core::{reference, Settings as DdpSettings, Solver, Vector};
@@ -43,7 +44,7 @@ fn inactive_obstacle_changes_nothing() {
     let problem = reference::p1_unicycle();
     let mut plain = SafeCddpSolver::new(&problem, vec![], Settings::default()).unwrap();
     let cost = plain.solve(&problem).unwrap().cost;
-    let far: Arc<dyn Constraint<3, 2>> = Arc::new(Circle::squared([10.0, 10.0], 1.0, [0, 1]).unwrap());
+    let far: Arc<dyn Constraint<U3, U2>> = Arc::new(Circle::squared([10.0, 10.0], 1.0, [0, 1]).unwrap());
     let mut solver = SafeCddpSolver::new(&problem, vec![far], Settings::default()).unwrap();
     let r = solver.solve(&problem).unwrap();
     assert_eq!(r.status, Status::Converged);
@@ -88,7 +89,7 @@ fn a_start_inside_an_obstacle_is_reported_infeasible() {
     // x0 inside a circle that no control can leave in one step: the state at t = 1 violates.
     let mut problem = reference::point_reach();
     problem.set_x0(Vector::<4>::new(1.0, 1.0, 0.0, 0.0)).unwrap();
-    let trap: Arc<dyn Constraint<4, 2>> = Arc::new(Circle::squared([1.0, 1.0], 2.0, [0, 1]).unwrap());
+    let trap: Arc<dyn Constraint<U4, U2>> = Arc::new(Circle::squared([1.0, 1.0], 2.0, [0, 1]).unwrap());
     let settings = Settings {
         max_iterations: 30,
         ..Settings::default()

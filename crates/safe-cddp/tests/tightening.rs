@@ -1,6 +1,6 @@
 //! Covariance propagation (eq. 19) and tightening (eq. 20).
 
-use nalgebra::{U2, U4};
+use ddp_core::dims::{U2, U4};
 use std::sync::Arc;
 
 use ddp_core::{reference, Dynamics, Matrix, Vector};
@@ -18,10 +18,10 @@ fn sigma_w() -> Matrix<4, 4> {
 }
 
 /// Solves P3's double integrator (no obstacles) and tightens: covariances with closed-loop gains.
-fn solved_point() -> (ddp_core::Problem<U4, U2>, SafeCddpSolver<4, 2>) {
+fn solved_point() -> (ddp_core::Problem<U4, U2>, SafeCddpSolver<U4, U2>) {
     let problem = reference::point_reach();
     let mut solver = SafeCddpSolver::new(&problem, vec![], Settings::default()).unwrap();
-    solver.set_tightening(Some(Tightening::new(0.95, sigma_w()).unwrap()));
+    solver.set_tightening(Some(Tightening::new(0.95, sigma_w()).unwrap())).unwrap();
     solver.solve(&problem).unwrap();
     solver.tighten(&problem).unwrap();
     (problem, solver)
@@ -103,13 +103,13 @@ fn open_loop_covariance_grows_faster_than_closed_loop() {
 fn margins_follow_eq_20_and_grow_with_the_horizon() {
     // One obstacle beside the path; margins of its rows = z sqrt(g_x^T Sigma_t g_x).
     let problem = reference::point_reach();
-    let obstacle: Arc<dyn Constraint<4, 2>> = Arc::new(Circle::distance([1.0, 2.0], 0.3, [0, 1]).unwrap());
+    let obstacle: Arc<dyn Constraint<U4, U2>> = Arc::new(Circle::distance([1.0, 2.0], 0.3, [0, 1]).unwrap());
     let mut solver = SafeCddpSolver::new(&problem, vec![obstacle.clone()], Settings::default()).unwrap();
     let t = Tightening::new(0.99, sigma_w())
         .unwrap()
         .with_gains(Gains::OpenLoop)
         .unwrap();
-    solver.set_tightening(Some(t));
+    solver.set_tightening(Some(t)).unwrap();
     solver.solve(&problem).unwrap();
     solver.tighten(&problem).unwrap();
     let z = 2.3263478740408408;
@@ -135,8 +135,8 @@ fn moving_obstacle_margin_grows_along_the_horizon() {
     // perfectly known robot (Sigma_w = 0) the margin grows with t.
     let problem = reference::point_reach();
     let kf = ObstacleTracker::new(0.05, 1.0, 0.05, [1.5, 0.5], [0.0, 0.5], 0.05, 0.2).unwrap();
-    let moving: Arc<dyn Constraint<4, 2>> =
-        Arc::new(kf.moving_circle::<4>(100, 0.3, [0, 1], Default::default()).unwrap());
+    let moving: Arc<dyn Constraint<U4, U2>> =
+        Arc::new(kf.moving_circle::<U4>(100, 0.3, [0, 1], Default::default()).unwrap());
     let mut solver = SafeCddpSolver::new(
         &problem,
         vec![moving],
@@ -146,7 +146,7 @@ fn moving_obstacle_margin_grows_along_the_horizon() {
         },
     )
     .unwrap();
-    solver.set_tightening(Some(Tightening::new(0.95, Matrix::zeros()).unwrap()));
+    solver.set_tightening(Some(Tightening::new(0.95, Matrix::zeros()).unwrap())).unwrap();
     solver.solve(&problem).unwrap();
     solver.tighten(&problem).unwrap();
     let margins: Vec<f64> = (0..solver.horizon() - 1).map(|k| solver.margins(k)[0]).collect();
@@ -168,8 +168,8 @@ proptest! {
         let b2 = (b1 + db).min(0.9999);
         let sigma = Matrix::<4, 4>::identity() * scale;
         let g = Vector::<4>::new(gx0, gx1, 0.0, 0.0);
-        let t1 = Tightening::<4, 2>::new(b1, sigma).unwrap();
-        let t2 = Tightening::<4, 2>::new(b2, sigma).unwrap();
+        let t1 = Tightening::<U4, U2>::new(b1, sigma).unwrap();
+        let t2 = Tightening::<U4, U2>::new(b2, sigma).unwrap();
         let m1 = margin(t1.quantile(), &g, &sigma, 0.0);
         let m2 = margin(t2.quantile(), &g, &sigma, 0.0);
         prop_assert!(m2 >= m1);
@@ -180,7 +180,7 @@ proptest! {
 }
 
 /// The car of the iteration benchmark: N = 90, goal (3, 0) at rest, two discs (squared form).
-fn car_n90() -> (ddp_core::Problem<U4, U2>, Vec<Arc<dyn Constraint<4, 2>>>) {
+fn car_n90() -> (ddp_core::Problem<U4, U2>, Vec<Arc<dyn Constraint<U4, U2>>>) {
     use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
     use ddp_core::models::Car;
     use ddp_core::{ControlBounds, Problem};
@@ -197,7 +197,7 @@ fn car_n90() -> (ddp_core::Problem<U4, U2>, Vec<Arc<dyn Constraint<4, 2>>>) {
     )
     .unwrap()
     .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap()).unwrap();
-    let obstacles: Vec<Arc<dyn Constraint<4, 2>>> = vec![
+    let obstacles: Vec<Arc<dyn Constraint<U4, U2>>> = vec![
         Arc::new(Circle::squared([1.0, 0.1], 0.35, [0, 1]).unwrap()),
         Arc::new(Circle::squared([2.0, -0.1], 0.35, [0, 1]).unwrap()),
     ];
@@ -224,7 +224,7 @@ fn tightened_car_converges_feasibly() {
         let deterministic = tightened.solve(&problem).unwrap().clone();
         assert_eq!(deterministic.status, safe_cddp::Status::Converged);
         let sigma_w = Matrix::<4, 4>::identity() * sigma;
-        tightened.set_tightening(Some(Tightening::new(0.99, sigma_w).unwrap()));
+        tightened.set_tightening(Some(Tightening::new(0.99, sigma_w).unwrap())).unwrap();
         let r = tightened.solve(&problem).unwrap().clone();
         assert_eq!(
             r.status,

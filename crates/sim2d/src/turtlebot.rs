@@ -340,11 +340,11 @@ impl TurtlebotConfig {
 
     /// The constraint rows: each disc grown by [`TurtlebotConfig::inflation`], distance form
     /// (`g = r + inflation - |p - c|`, metres).
-    pub fn constraints(&self) -> Result<Vec<Arc<dyn Constraint<3, 2>>>> {
+    pub fn constraints(&self) -> Result<Vec<Arc<dyn Constraint<U3, U2>>>> {
         self.discs
             .iter()
-            .map(|d| -> Result<Arc<dyn Constraint<3, 2>>> {
-                Ok(Arc::new(Circle::<3>::distance(
+            .map(|d| -> Result<Arc<dyn Constraint<U3, U2>>> {
+                Ok(Arc::new(Circle::<U3>::distance(
                     d.center,
                     d.radius + self.inflation,
                     [0, 1],
@@ -355,7 +355,7 @@ impl TurtlebotConfig {
 
     /// The tightening of `beta`: `Sigma_w = diag(sigma_w^2)`, `Sigma_0` the localisation
     /// covariance, `n2 = update_every`.
-    pub fn tightening(&self, beta: f64) -> Result<Tightening<3, 2>> {
+    pub fn tightening(&self, beta: f64) -> Result<Tightening<U3, U2>> {
         let sw = Vector::<3>::from_iterator(self.sigma_w.iter().map(|s| s * s));
         let s0 = Vector::<3>::new(
             self.sigma_xy * self.sigma_xy,
@@ -447,8 +447,8 @@ fn wrap_near(angle: f64, reference: f64) -> f64 {
 
 /// `n` iterations of Algorithm 1's inner loop (lines 3-26); returns whether an iteration
 /// reported an infeasible QP or trajectory.
-fn iterate(solver: &mut SafeCddpSolver<3, 2>, problem: &Problem<U3, U2>, n: usize) -> Result<bool> {
-    let tightening = solver.tightening().copied();
+fn iterate(solver: &mut SafeCddpSolver<U3, U2>, problem: &Problem<U3, U2>, n: usize) -> Result<bool> {
+    let tightening = solver.tightening().cloned();
     let mut infeasible = false;
     // The first KKT/QP iteration of a step tightens (iter % n2 == 0), then every n2.
     let mut since = usize::MAX / 2;
@@ -480,7 +480,7 @@ pub fn run_episode(config: &TurtlebotConfig, controller: Controller, seed: u64) 
         if !(beta > 0.0 && beta < 1.0) {
             return Err(Error::invalid("beta", format!("must be in (0, 1), got {beta}")));
         }
-        solver.set_tightening(Some(config.tightening(beta)?));
+        solver.set_tightening(Some(config.tightening(beta)?))?;
     }
     let model = DifferentialDrive::new(config.dt, config.track_width)?;
     let scenario = config.scenario()?;

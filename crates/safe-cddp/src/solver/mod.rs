@@ -1,0 +1,1048 @@
+//! The constrained DDP solver (Xie et al. 2017) with Safe-CDDP tightening (Alcan and Kyrki 2022).
+//!
+//! One iteration (Algorithm 1, lines 4-26):
+//! 1. **Linearise** dynamics, costs and constraints along `(xs, us)`. Constraint rows are
+//!    gathered per knot: mixed rows at `(x_k, u_k)`, state rows `g(x_{k+r})` moved to the knot
+//!    whose control reaches them (`C = g_x Phi f_u`, `D = g_x Phi f_x`,
+//!    `Phi = f_x(k+r-1) ... f_x(k+1)`), and the sides of the control bounds.
+//! 2. **Backward pass**: `Q` from eq. (5); rows with `g~ > -epsilon` form the active set; a
+//!    working set of at most `NU` independent rows is taken greedily (most active first), rows
+//!    with negative multipliers are pruned one by one, and eqs. (10)-(12) give `K, d`; eq. (14)
+//!    gives `V_x, V_xx`.
+//! 3. **Forward pass**: at every knot the QP of eq. (15) ([`crate::qp::StepQp`]) with
+//!    `dx = x - x_bar` and the step `alpha` on `Q_u`; a backtracking line search on the merit
+//!    `J + rho sum max(0, g~)`. An infeasible QP retries the pass with a smaller step and a
+//!    shrinking trust region `|du| <= Delta` (at most `max_qp_retries` times); then the
+//!    regularisation `mu` is raised; past `mu_max` the status is [`Status::Infeasible`] with the
+//!    knot.
+//! 4. **Tightening** every `n2` iterations of the KKT/QP phase: eq. (19) with the feedback gains
+//!    of a backward pass whose only rows are the control bounds ([`crate::Gains::ClosedLoop`]; the
+//!    state-constraint rows would make the gains dead-beat, `O(1/dt^r)`, see there), eq. (20)
+//!    margins.
+//!
+//! **One core.** Linearisation, the Q blocks, the regularisation and its schedule, the value
+//! update, rollouts and the line search are `ddp-core`'s ([`ddp_core::solver::core`]); this
+//! solver overrides only the gains (`working_set`: active set and KKT, eqs. (10)-(12)), the
+//! forward pass (`forward`: per-step QPs, eq. (15)), the warm-up (`warm_up`) and the
+//! tightening (`tighten`, eqs. (19)-(20)); `rows` holds the constraint rows of every knot.
+//!
+//! **Warm-up (design change, [`Settings::al_warm_start`]).** A state constraint can be moved by
+//! one knot's control only a little (`C` is `O(dt^2)` for the point robot and the car), so from a
+//! far-off guess the per-step QPs turn infeasible and the iterations stall. Each solve therefore
+//! starts with augmented-Lagrangian iterations on the same workspace: the constraint rows enter the
+//! cost at their own time (so `V_x` carries them backwards), control bounds stay in the KKT
+//! working set, the forward pass is a plain rollout (no QPs), and the multipliers are updated
+//! between inexact inner solves (at most [`Settings::al_inner_iterations`] each). Once the
+//! violation is below [`Settings::al_switch_violation`] the iterations above take over with the
+//! multipliers as their first estimate. A tightening that makes the trajectory infeasible, or a
+//! KKT/QP iteration that finds no acceptable step, re-enters the warm-up with the current
+//! multipliers and a moderate penalty; after such a failure the warm-up runs to its own
+//! convergence. Multipliers and penalty carry over between solves ([`SafeCddpSolver::reset`] is
+//! the cold start), and a warm start that is already feasible skips the warm-up.
+//!
+//! | symbol | field / accessor | equation |
+//! |---|---|---|
+//! | `Q_x, Q_u, Q_xx, Q_uu, Q_ux` | `q_x, q_u, q_xx, q_uu, q_ux` (`q_uu_r = Q_uu + mu I`) | (5) |
+//! | `C, D` (`g~_u`, `g~_x` of the rows of a knot) | `row_c`, `row_d` | (8) |
+//! | `lambda` | [`SafeCddpSolver::multipliers`] | (10) |
+//! | `K, d` | [`SafeCddpSolver::gains`], [`SafeCddpSolver::feedforward`] | (11)-(12) |
+//! | `V_x, V_xx` | `v_x`, `v_xx` | (14) |
+//! | `du*` | solution of [`crate::qp::StepQp::solve`] | (15)-(16) |
+//! | `Sigma_x` | [`SafeCddpSolver::covariances`] | (19) |
+//! | `phi^{-1}(beta) sqrt(g_x^T Sigma_x g_x)` | [`SafeCddpSolver::margins`] (`row_margin`) | (20) |
+//! | `epsilon` (active set) | [`Settings::active_threshold`] | §III-A |
+//! | `n1`, `n2` | [`crate::mpc::MpcSettings::iterations`], [`crate::Tightening::update_every`] | Alg. 1 |
+
+mod forward;
+mod rows;
+mod tighten;
+mod warm_up;
+mod working_set;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use ddp_core::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
+use ddp_core::error::check_finite;
+use ddp_core::solver::{armijo_accepts, line_search, BackwardOptions, Core, Trial};
+use ddp_core::{Error, Problem, Result};
+
+use self::forward::{Forward, ForwardQp};
+use self::rows::{Merit, Rows, Slot, Violation};
+use self::tighten::Stochastic;
+use self::warm_up::WarmUp;
+use self::working_set::{Kkt, KktGains};
+use crate::settings::{IterationLog, Report, Settings, Status};
+use crate::tightening::Tightening;
+use crate::Constraint;
+
+/// What one call of [`SafeCddpSolver::iterate`] did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum IterationOutcome {
+    /// A step was accepted.
+    Accepted {
+        /// Its length `alpha`.
+        step: f64,
+        /// Whether the convergence tests are met.
+        converged: bool,
+    },
+    /// No step was accepted; `mu` was raised (the next iteration retries).
+    Rejected,
+    /// The iteration ended the solve (regularisation limit, infeasible, numerical failure).
+    Failed(Status),
+    /// The projected gradient is below tolerance on a feasible trajectory: nothing to do.
+    Converged,
+}
+
+/// The iteration state that is neither trajectory nor constraint data.
+#[derive(Debug, Clone, Copy)]
+struct IterState {
+    /// Merit `J + term` of the current trajectory.
+    merit: f64,
+    /// Largest violation of a tightened row on the current trajectory.
+    violation_max: f64,
+    /// Trust region `Delta` of the forward QPs.
+    trust: f64,
+    need_linearize: bool,
+    started: bool,
+    iteration: usize,
+}
+
+/// The Safe-CDDP solver and its workspace, for `NX` states, `NU` controls (compile-time or
+/// run-time sizes), a horizon of at most the problem's `N` knots and a fixed list of constraints.
+///
+/// Its state is split into named parts: the one DDP core of `ddp-core` (trajectory,
+/// linearisation, policy, value function, Q blocks, regularisation), the constraint rows, the
+/// KKT gains' per-knot results, the forward pass's QP, the warm-up and the tightening.
+///
+/// [`SafeCddpSolver::new`] allocates everything: `O(N)` matrices, `O(N m)` constraint rows
+/// (`m` = rows per knot), the iteration log, and the Clarabel QP solver, which is set up once for
+/// `m + 2 nu` rows and updated in place. [`SafeCddpSolver::solve`] allocates nothing itself for
+/// compile-time sizes; Clarabel allocates a little inside its own `solve` (timers), which runs
+/// only for QPs that the fast paths do not answer.
+///
+/// The controls in the workspace are the initial guess of the next solve (warm start);
+/// [`SafeCddpSolver::shift`] and [`SafeCddpSolver::set_horizon`] implement the shrinking-horizon
+/// MPC of Algorithm 1.
+pub struct SafeCddpSolver<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    settings: Settings,
+    cap: usize,
+    constraints: Vec<Arc<dyn Constraint<NX, NU>>>,
+    core: Core<NX, NU>,
+    rows: Rows<NX, NU>,
+    kkt: Kkt<NX, NU>,
+    fwd: ForwardQp<NX, NU>,
+    warm: WarmUp,
+    stoch: Stochastic<NX, NU>,
+    it: IterState,
+    report: Report,
+}
+
+impl<NX: Dim, NU: Dim> std::fmt::Debug for SafeCddpSolver<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SafeCddpSolver")
+            .field("settings", &self.settings)
+            .field("capacity", &self.cap)
+            .field("horizon", &self.core.n)
+            .field("constraints", &self.constraints.len())
+            .field("rows_per_knot", &self.rows.m)
+            .field("cost", &self.core.cost)
+            .finish()
+    }
+}
+
+impl<NX: Dim, NU: Dim> SafeCddpSolver<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Validates `settings` and the constraints (sizes, relative degrees), finds the relative
+    /// degree of each state-only constraint (from the dynamics of knot 0 around `x0`, unless the
+    /// constraint states it), and allocates the workspace (see the type docs).
+    pub fn new(
+        problem: &Problem<NX, NU>,
+        constraints: Vec<Arc<dyn Constraint<NX, NU>>>,
+        settings: Settings,
+    ) -> Result<Self> {
+        settings.validate()?;
+        let dims = problem.dims();
+        let cap = problem.horizon();
+        let max_dim = constraints.iter().map(|c| c.dim()).max().unwrap_or(0).max(1);
+        let mut slots = Vec::with_capacity(constraints.len());
+        let mut offset = 0;
+        for (j, c) in constraints.iter().enumerate() {
+            c.check_sizes(dims.nx(), dims.nu()).map_err(|e| name_constraint(j, e))?;
+            let mixed = c.depends_on_control();
+            let degree = if mixed {
+                0
+            } else {
+                relative_degree(problem, c.as_ref(), j, settings.max_relative_degree, max_dim)?
+            };
+            slots.push(Slot {
+                offset,
+                dim: c.dim(),
+                mixed,
+                degree,
+            });
+            offset += c.dim();
+        }
+        let rows = Rows::new(dims, slots, cap);
+        let m = rows.m;
+        Ok(Self {
+            settings,
+            cap,
+            constraints,
+            core: Core::new(dims, cap, &settings.regularization),
+            kkt: Kkt::new(dims, cap, m),
+            fwd: ForwardQp::new(dims, m, settings.qp_method)?,
+            warm: WarmUp::new(cap * m, settings.al_rho_init),
+            stoch: Stochastic::new(dims, cap),
+            rows,
+            it: IterState {
+                merit: f64::NAN,
+                violation_max: 0.0,
+                trust: settings.trust_region,
+                need_linearize: true,
+                started: false,
+                iteration: 0,
+            },
+            report: Report::new(settings.max_iterations + 1),
+        })
+    }
+
+    // ----------------------------------------------------------------------------------------
+    // Configuration and accessors.
+
+    /// The settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+    /// Replaces the settings (validated; the log grows if `max_iterations` grows).
+    pub fn set_settings(&mut self, settings: Settings) -> Result<()> {
+        settings.validate()?;
+        if settings.max_iterations + 1 > self.report.log.capacity() {
+            self.report
+                .log
+                .reserve(settings.max_iterations + 1 - self.report.log.len());
+        }
+        self.fwd.qp.set_method(settings.qp_method);
+        self.settings = settings;
+        Ok(())
+    }
+    /// The sizes.
+    pub fn dims(&self) -> Dims<NX, NU> {
+        self.core.dims
+    }
+    /// The tightening in use (`None`: the constraints are deterministic, plain CDDP).
+    pub fn tightening(&self) -> Option<&Tightening<NX, NU>> {
+        self.stoch.tightening.as_ref()
+    }
+    /// Sets or removes the tightening (its sizes must fit the problem's). Removing it zeroes the
+    /// margins; setting it leaves them until the next [`SafeCddpSolver::tighten`].
+    pub fn set_tightening(&mut self, tightening: Option<Tightening<NX, NU>>) -> Result<()> {
+        match &tightening {
+            Some(t) => t.check_sizes(self.core.dims.nx(), self.core.dims.nu())?,
+            None => self.rows.margin.iter_mut().for_each(|m| *m = 0.0),
+        }
+        self.stoch.tightening = tightening;
+        self.it.started = false;
+        Ok(())
+    }
+    /// The constraints.
+    pub fn constraints(&self) -> &[Arc<dyn Constraint<NX, NU>>] {
+        &self.constraints
+    }
+    /// Replaces constraint `index` by one with the same `dim()`, the same kind and the same
+    /// relative degree (e.g. a moving obstacle with a new prediction). Allocates nothing.
+    pub fn set_constraint(&mut self, index: usize, constraint: Arc<dyn Constraint<NX, NU>>) -> Result<()> {
+        let slot = *self.rows.slots.get(index).ok_or_else(|| {
+            Error::invalid(
+                "index",
+                format!("constraint {index} out of range ({} constraints)", self.rows.slots.len()),
+            )
+        })?;
+        if constraint.dim() != slot.dim || constraint.depends_on_control() != slot.mixed {
+            return Err(Error::invalid(
+                format!("constraints[{index}]"),
+                "the replacement must have the same dim() and depends_on_control()",
+            ));
+        }
+        constraint
+            .check_sizes(self.core.dims.nx(), self.core.dims.nu())
+            .map_err(|e| name_constraint(index, e))?;
+        if let Some(r) = constraint.relative_degree() {
+            if !slot.mixed && r != slot.degree {
+                return Err(Error::invalid(
+                    format!("constraints[{index}]"),
+                    format!(
+                        "relative degree {r} differs from the replaced constraint's {}",
+                        slot.degree
+                    ),
+                ));
+            }
+        }
+        self.constraints[index] = constraint;
+        self.it.need_linearize = true;
+        self.it.started = false;
+        Ok(())
+    }
+    /// The relative degree used for each constraint (0 for mixed constraints).
+    pub fn relative_degrees(&self) -> impl Iterator<Item = usize> + '_ {
+        self.rows.slots.iter().map(|s| s.degree)
+    }
+    /// The horizon the workspace was allocated for.
+    pub fn capacity(&self) -> usize {
+        self.cap
+    }
+    /// The active horizon `n` (at most the capacity): solves use the first `n` knots of the
+    /// problem and its terminal cost at `x_n`.
+    pub fn horizon(&self) -> usize {
+        self.core.n
+    }
+    /// Shortens (or restores) the active horizon, `1 <= n <= capacity` (shrinking-horizon MPC).
+    pub fn set_horizon(&mut self, n: usize) -> Result<()> {
+        if n == 0 || n > self.cap {
+            return Err(Error::invalid(
+                "horizon",
+                format!("must be in 1..={} (the capacity), got {n}", self.cap),
+            ));
+        }
+        self.core.n = n;
+        self.it.need_linearize = true;
+        self.it.started = false;
+        Ok(())
+    }
+    /// Zeroes the initial guess, gains, multipliers (the warm-up's too, with its penalty back at
+    /// [`Settings::al_rho_init`]), covariances and margins: a cold start, whose solve begins with
+    /// the warm-up. Everything a solve reads is then as after [`SafeCddpSolver::new`], so solves
+    /// after a reset are reproducible.
+    pub fn reset(&mut self) {
+        self.core.traj.us.iter_mut().for_each(|u| u.fill(0.0));
+        self.core.policy.clear();
+        self.stoch.k_prop.iter_mut().for_each(|k| k.fill(0.0));
+        self.stoch.sigma.iter_mut().for_each(|s| s.fill(0.0));
+        self.rows.lambda.iter_mut().for_each(|l| *l = 0.0);
+        self.rows.margin.iter_mut().for_each(|m| *m = 0.0);
+        self.kkt.ws_len.iter_mut().for_each(|w| *w = 0);
+        self.warm.lambda.iter_mut().for_each(|l| *l = 0.0);
+        self.warm.rho = self.settings.al_rho_init;
+        self.warm.cold = true;
+        self.it.started = false;
+    }
+    /// Sets the initial guess (length `n`, each of size `nu`, finite).
+    pub fn set_controls(&mut self, us: &[VectorN<NU>]) -> Result<()> {
+        let (n, nu) = (self.core.n, self.core.dims.nu());
+        if us.len() != n {
+            return Err(Error::Shape {
+                field: "us".into(),
+                got: format!("({}, {nu})", us.len()),
+                expected: format!("({n}, {nu})"),
+            });
+        }
+        for (k, u) in us.iter().enumerate() {
+            if u.len() != nu {
+                return Err(Error::Shape {
+                    field: format!("us[{k}]"),
+                    got: format!("({},)", u.len()),
+                    expected: format!("({nu},)"),
+                });
+            }
+            check_finite(&format!("us[{k}]"), u.iter())?;
+        }
+        for (dst, src) in self.core.traj.us.iter_mut().zip(us) {
+            dst.copy_from(src);
+        }
+        self.it.started = false;
+        Ok(())
+    }
+    /// Receding horizon: drops knot 0 of the solution (controls, states, gains, multipliers,
+    /// margins) and repeats the last knot. Call [`SafeCddpSolver::set_horizon`] with `n - 1` for
+    /// a shrinking horizon.
+    pub fn shift(&mut self) {
+        let n = self.core.n;
+        if n > 1 {
+            self.core.shift();
+            self.stoch.k_prop[..n].rotate_left(1);
+            self.stoch.k_prop[n - 1] = self.stoch.k_prop[n - 2].clone();
+            self.kkt.shift(n);
+            self.rows.shift(n, &mut self.warm.lambda);
+        }
+        self.it.started = false;
+        self.it.need_linearize = true;
+    }
+    /// States `x_0 .. x_n` of the current trajectory.
+    pub fn xs(&self) -> &[VectorN<NX>] {
+        &self.core.traj.xs[..=self.core.n]
+    }
+    /// Controls `u_0 .. u_{n-1}` of the current trajectory.
+    pub fn us(&self) -> &[VectorN<NU>] {
+        &self.core.traj.us[..self.core.n]
+    }
+    /// Feedback gains `K_k` of the last backward pass, eq. (12).
+    pub fn gains(&self) -> &[MatrixN<NU, NX>] {
+        &self.core.policy.k_fb[..self.core.n]
+    }
+    /// The gains `K_k` the last tightening propagated the covariance with (eq. 19): the
+    /// bounds-only backward pass for [`crate::Gains::ClosedLoop`], [`SafeCddpSolver::gains`] for
+    /// [`crate::Gains::ActiveSet`], zero or the fixed gain for the baselines.
+    pub fn propagation_gains(&self) -> &[MatrixN<NU, NX>] {
+        &self.stoch.k_prop[..self.core.n]
+    }
+    /// Feed-forward terms `d_k` of the last backward pass, eq. (12).
+    pub fn feedforward(&self) -> &[VectorN<NU>] {
+        &self.core.policy.k_ff[..self.core.n]
+    }
+    /// Covariances `Sigma_0 .. Sigma_n` of the last tightening, eq. (19).
+    pub fn covariances(&self) -> &[MatrixN<NX, NX>] {
+        &self.stoch.sigma[..=self.core.n]
+    }
+    /// Rows per knot (constraint rows, then `2 nu` control-bound sides).
+    pub fn rows_per_knot(&self) -> usize {
+        self.rows.m
+    }
+    /// Tightening margins of the rows of knot `k`, eq. (20) (see [`SafeCddpSolver::rows_per_knot`]).
+    pub fn margins(&self, k: usize) -> &[f64] {
+        &self.rows.margin[k * self.rows.m..(k + 1) * self.rows.m]
+    }
+    /// Multipliers `lambda` of the rows of knot `k` from the last backward pass (zero outside the
+    /// working set), eq. (10).
+    pub fn multipliers(&self, k: usize) -> &[f64] {
+        &self.rows.lambda[k * self.rows.m..(k + 1) * self.rows.m]
+    }
+    /// The state index `t` that row `row` of knot `k` constrains (`k` itself for mixed rows and
+    /// control bounds), or `None` when the row is beyond the horizon.
+    pub fn row_time(&self, k: usize, row: usize) -> Option<usize> {
+        if row >= self.rows.bound_offset {
+            return Some(k);
+        }
+        let slot = self.rows.slots.iter().find(|s| row >= s.offset && row < s.offset + s.dim)?;
+        slot.time(k, self.core.n)
+    }
+    /// The report of the last solve (or of the iterations since the last
+    /// [`SafeCddpSolver::start`]).
+    pub fn report(&self) -> &Report {
+        &self.report
+    }
+    /// QP counters since the last [`SafeCddpSolver::start`] (live: [`Report::qp`] is filled in
+    /// only when [`SafeCddpSolver::solve`] ends).
+    pub fn qp_stats(&self) -> &crate::qp::QpStats {
+        self.fwd.qp.stats()
+    }
+    /// Current cost `J`.
+    pub fn cost(&self) -> f64 {
+        self.core.cost
+    }
+
+    fn check_problem(&self, problem: &Problem<NX, NU>) -> Result<()> {
+        let n = self.core.n;
+        if problem.horizon() < n {
+            return Err(Error::Shape {
+                field: "problem.horizon".into(),
+                got: problem.horizon().to_string(),
+                expected: format!("at least {n} (the solver's horizon)"),
+            });
+        }
+        if problem.horizon() > self.cap {
+            return Err(Error::Shape {
+                field: "problem.horizon".into(),
+                got: problem.horizon().to_string(),
+                expected: format!("at most {} (the capacity this solver was created for)", self.cap),
+            });
+        }
+        let (d, mine) = (problem.dims(), self.core.dims);
+        if d.nx() != mine.nx() || d.nu() != mine.nu() {
+            return Err(Error::Shape {
+                field: "problem".into(),
+                got: format!("(nx, nu) = ({}, {})", d.nx(), d.nu()),
+                expected: format!("({}, {}) (the sizes this solver was created for)", mine.nx(), mine.nu()),
+            });
+        }
+        Ok(())
+    }
+
+    // ----------------------------------------------------------------------------------------
+    // Solve.
+
+    /// Solves `problem` from the controls in the workspace: [`SafeCddpSolver::start`], then
+    /// [`SafeCddpSolver::iterate`] until convergence or `max_iterations`, tightening every `n2`
+    /// iterations when a [`Tightening`] is set (Algorithm 1, lines 3-26). With a tightening, a
+    /// solve converges only once the margins have been updated at the final trajectory.
+    ///
+    /// Errors only on bad input (a horizon or sizes other than the workspace's); the outcome is
+    /// [`Report::status`].
+    pub fn solve(&mut self, problem: &Problem<NX, NU>) -> Result<&Report> {
+        let start = Instant::now();
+        self.start(problem)?;
+        let mut status = Status::MaxIterations;
+        if !self.core.cost.is_finite() {
+            status = Status::NumericalError;
+        } else {
+            // Iterations since the last tightening; starts "overdue" so that a solve that begins
+            // in the KKT/QP iterations tightens after its first iteration (Algorithm 1, line 22).
+            let mut since_tightening = usize::MAX / 2;
+            for _ in 0..self.settings.max_iterations {
+                let outcome = self.iterate(problem)?;
+                let mut tightened = false;
+                let mut fresh = false;
+                if let Some(n2) = self.stoch.tightening.as_ref().map(|t| t.update_every()) {
+                    since_tightening += 1;
+                    if self.tightening_due_every(since_tightening, n2) {
+                        let changed = self.tighten(problem)?;
+                        tightened = changed > self.settings.constraint_tolerance;
+                        fresh = true;
+                        since_tightening = 0;
+                    }
+                }
+                if let Some(last) = self.report.log.last_mut() {
+                    last.tightened = tightened;
+                }
+                match outcome {
+                    IterationOutcome::Failed(s) => {
+                        status = s;
+                        break;
+                    }
+                    IterationOutcome::Converged | IterationOutcome::Accepted { converged: true, .. } => {
+                        if self.stoch.tightening.is_none() || (fresh && !tightened) {
+                            status = Status::Converged;
+                            break;
+                        }
+                        if !fresh {
+                            // Converged with margins of an older trajectory: refresh them now.
+                            let changed = self.tighten(problem)?;
+                            since_tightening = 0;
+                            if changed <= self.settings.constraint_tolerance {
+                                status = Status::Converged;
+                                break;
+                            }
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        self.finish(status);
+        self.report.solve_time = start.elapsed();
+        Ok(&self.report)
+    }
+
+    /// Whether Algorithm 1 tightens now, `since` iterations after the last tightening: every
+    /// `n2` iterations of the KKT/QP phase. Not during the warm-up: its inner solves are inexact
+    /// and its trajectory drifts while the multipliers settle, so margins computed there move the
+    /// target of every inner solve and the warm-up never hands over (the paper likewise solves
+    /// the deterministic problem first and tightens "afterward", §III-D). A warm-up that hands
+    /// over with `since >= n2` tightens at once.
+    pub fn tightening_due(&self, since: usize, tightening: &Tightening<NX, NU>) -> bool {
+        self.tightening_due_every(since, tightening.update_every())
+    }
+
+    fn tightening_due_every(&self, since: usize, n2: usize) -> bool {
+        !self.warm.active && since >= n2
+    }
+
+    /// Whether the solver is in its augmented-Lagrangian warm-up ([`Settings::al_warm_start`])
+    /// rather than in the KKT/QP iterations of Xie et al.
+    pub fn in_warm_up(&self) -> bool {
+        self.warm.active
+    }
+
+    /// Starts a solve: projects the controls onto the bounds, rolls them out from `x0`, evaluates
+    /// the cost and the violation, and clears the report. Called by [`SafeCddpSolver::solve`];
+    /// call it before driving [`SafeCddpSolver::iterate`] by hand (the MPC does).
+    pub fn start(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
+        self.check_problem(problem)?;
+        let r = &mut self.report;
+        r.log.clear();
+        r.log_dropped = 0;
+        r.iterations = 0;
+        r.backward_passes = 0;
+        r.forward_passes = 0;
+        r.infeasible_forward_passes = 0;
+        r.tightenings = 0;
+        r.status = Status::MaxIterations;
+        self.fwd.qp.reset_stats();
+        self.core.clamp_controls(problem.bounds());
+        let cost = self.core.rollout(problem);
+        // The warm-up runs after a cold start and whenever the initial trajectory violates a row;
+        // a warm start that is already feasible (an MPC step, a re-solve) goes straight to the
+        // KKT/QP iterations. Multipliers and penalty carry over from the previous solve (see
+        // `reset`), so a warm start does not first drift into the obstacles under a weak penalty.
+        self.warm.active = false;
+        let max = self.violation_of(false, false).max;
+        let s = self.settings;
+        self.warm.active = s.al_warm_start
+            && self.rows.bound_offset > 0
+            && (self.warm.cold || max > s.al_switch_violation);
+        self.warm.rho = self.warm.rho.max(s.al_rho_init);
+        self.warm.prev_violation = f64::INFINITY;
+        self.warm.inner = 0;
+        self.warm.kkt_failed = false;
+        self.refresh_merit();
+        self.core.reg.reset(&s.regularization);
+        self.it.trust = s.trust_region;
+        self.core.expected.gradient = f64::NAN;
+        self.kkt.active = 0;
+        self.it.need_linearize = true;
+        self.it.started = true;
+        self.it.iteration = 0;
+        self.report.initial_cost = cost;
+        self.log(0, 0.0, true);
+        Ok(())
+    }
+
+    /// One iteration: linearise (if the trajectory changed), compute the direction (backward
+    /// pass, raising `mu` until `Q_uu` is positive definite), the stopping test, and the step
+    /// (forward pass with the per-step QPs and a line search). Requires
+    /// [`SafeCddpSolver::start`] first (it is called automatically when needed).
+    pub fn iterate(&mut self, problem: &Problem<NX, NU>) -> Result<IterationOutcome> {
+        if !self.it.started {
+            self.start(problem)?;
+        }
+        self.check_problem(problem)?;
+        if !self.core.cost.is_finite() {
+            return Ok(IterationOutcome::Failed(Status::NumericalError));
+        }
+        self.it.iteration += 1;
+        let iteration = self.it.iteration;
+        if self.it.need_linearize {
+            self.linearize_now(problem);
+        }
+        if let Err(status) = self.compute_direction(problem) {
+            return Ok(IterationOutcome::Failed(status));
+        }
+        if let Some(outcome) = self.stopping_criteria(problem, iteration) {
+            return Ok(outcome);
+        }
+        match self.try_step(problem) {
+            Ok((alpha, merit, cost)) => Ok(self.accept_step(problem, iteration, alpha, merit, cost)),
+            Err(failure) => Ok(self.reject_step(problem, iteration, failure)),
+        }
+    }
+
+    /// The backward pass with the KKT gains, raising `mu` until it succeeds.
+    fn compute_direction(&mut self, problem: &Problem<NX, NU>) -> std::result::Result<(), Status> {
+        loop {
+            self.report.backward_passes += 1;
+            if self.backward_with(problem, self.core.reg.mu).is_ok() {
+                return Ok(());
+            }
+            if !self.core.reg.raise(&self.settings.regularization) {
+                return Err(Status::RegularizationLimit);
+            }
+        }
+    }
+
+    /// The core's backward pass with the KKT gains of this phase (full DDP first retries with
+    /// the second-order terms gated, as `ddp-core`'s solver does).
+    fn backward_with(&mut self, problem: &Problem<NX, NU>, mu: f64) -> std::result::Result<(), ddp_core::solver::NotPositiveDefinite> {
+        let s = self.settings;
+        let opts = BackwardOptions {
+            mu,
+            placement: s.regularization.placement,
+            method: s.method,
+            gated: false,
+        };
+        let mut result = self.kkt_backward(problem, opts);
+        if result.is_err() && s.method == ddp_core::Method::Ddp {
+            self.report.backward_passes += 1;
+            result = self.kkt_backward(problem, BackwardOptions { gated: true, ..opts });
+        }
+        result
+    }
+
+    fn kkt_backward(&mut self, problem: &Problem<NX, NU>, opts: BackwardOptions) -> std::result::Result<(), ddp_core::solver::NotPositiveDefinite> {
+        let s = &self.settings;
+        self.kkt.active = 0;
+        let first_row = if self.warm.active { self.rows.bound_offset } else { 0 };
+        let mut gains = KktGains {
+            kkt: &mut self.kkt,
+            rows: &mut self.rows,
+            eps: s.active_threshold,
+            first_row,
+            hessian: s.constraint_hessian && !self.warm.active,
+        };
+        self.core.backward(problem, &mut gains, opts)
+    }
+
+    /// The stopping test: in the warm-up, an inner solve that is stationary updates the
+    /// multipliers; otherwise a stationary, feasible trajectory has converged.
+    fn stopping_criteria(&mut self, problem: &Problem<NX, NU>, iteration: usize) -> Option<IterationOutcome> {
+        let tol = self.settings.tolerances.gradient;
+        let gradient = self.core.expected.gradient;
+        if self.warm.active && gradient < tol {
+            // The inner problem is solved: update the multipliers.
+            self.log(iteration, 0.0, false);
+            if self.update_multipliers(problem, true) {
+                return Some(IterationOutcome::Converged);
+            }
+            return Some(IterationOutcome::Accepted {
+                step: 0.0,
+                converged: false,
+            });
+        }
+        if gradient < tol && self.it.violation_max <= self.settings.constraint_tolerance {
+            self.log(iteration, 0.0, false);
+            return Some(IterationOutcome::Converged);
+        }
+        None
+    }
+
+    /// The line search on the merit: the warm-up rolls out the core's feedback policy, the
+    /// KKT/QP phase runs the per-step QPs (retrying an infeasible QP with a shrinking trust
+    /// region, then in elastic form). Returns the accepted step with its merit and cost, or the
+    /// status of the failure.
+    fn try_step(&mut self, problem: &Problem<NX, NU>) -> std::result::Result<(f64, f64, f64), Option<Status>> {
+        let s = self.settings;
+        let mut retries = 0;
+        let mut elastic = false;
+        let mut failure: Option<Status> = None;
+        let mut accepted = (f64::NAN, f64::NAN);
+        let alpha = line_search(&s.line_search, |alpha| {
+            self.report.forward_passes += 1;
+            let done = if self.warm.active {
+                Forward::Done {
+                    cost: self.core.rollout_policy(problem, alpha),
+                }
+            } else {
+                self.fwd.run(
+                    problem,
+                    &mut self.core,
+                    &self.rows,
+                    &self.kkt,
+                    alpha,
+                    self.it.trust,
+                    elastic,
+                    s.merit_penalty,
+                )
+            };
+            match done {
+                Forward::Done { cost } => {
+                    let trial = self.violation_of(true, true);
+                    let merit = cost + trial.term;
+                    let expected = self.core.expected.decrease(alpha);
+                    let actual = self.it.merit - merit;
+                    let small = actual.abs() <= s.tolerances.cost * (1.0 + self.core.cost.abs());
+                    let ok = merit.is_finite()
+                        && (armijo_accepts(&s.line_search, expected, actual)
+                            || (small && trial.max <= self.it.violation_max.max(s.constraint_tolerance)));
+                    if ok {
+                        accepted = (merit, cost);
+                        Trial::Accept
+                    } else {
+                        Trial::Shorter
+                    }
+                }
+                Forward::Infeasible { knot, max_du } => {
+                    self.report.infeasible_forward_passes += 1;
+                    failure = Some(Status::Infeasible { knot });
+                    retries += 1;
+                    if retries > s.max_qp_retries {
+                        if s.elastic && !elastic {
+                            // Relax the rows of infeasible QPs from now on; the merit decides.
+                            elastic = true;
+                            self.it.trust = s.trust_region;
+                            return Trial::Again;
+                        }
+                        return Trial::Stop;
+                    }
+                    // A diminishing trust region (and step) keeps the new trajectory closer to
+                    // the nominal one, whose linearisation the QPs use.
+                    self.it.trust = (s.trust_shrink * max_du).min(self.it.trust).max(1e-12);
+                    Trial::Shorter
+                }
+                Forward::Failed { knot } => {
+                    failure = Some(Status::QpFailed { knot });
+                    Trial::Stop
+                }
+            }
+        });
+        match alpha {
+            Some(alpha) => Ok((alpha, accepted.0, accepted.1)),
+            None => Err(failure),
+        }
+    }
+
+    /// Makes the trial the nominal trajectory, lowers `mu`, lets the trust region grow back, and
+    /// runs the convergence tests (the warm-up's multiplier update, or the merit change).
+    fn accept_step(&mut self, problem: &Problem<NX, NU>, iteration: usize, alpha: f64, merit: f64, cost: f64) -> IterationOutcome {
+        let s = self.settings;
+        let change = self.it.merit - merit;
+        self.core.traj.accept_trial();
+        self.core.cost = cost;
+        self.it.merit = merit;
+        self.it.violation_max = self.violation_of(false, true).max;
+        self.it.need_linearize = true;
+        self.report.iterations += 1;
+        self.log(iteration, alpha, true);
+        self.core.reg.lower(&s.regularization);
+        self.it.trust = (self.it.trust / s.trust_shrink).min(s.trust_region);
+        if self.warm.active {
+            self.warm.inner += 1;
+            let inner_done = change.abs() < s.al_inner_tolerance * (1.0 + self.it.merit.abs());
+            let converged =
+                (inner_done || self.warm.inner >= s.al_inner_iterations) && self.update_multipliers(problem, inner_done);
+            return IterationOutcome::Accepted { step: alpha, converged };
+        }
+        let converged = change.abs() < s.tolerances.cost * (1.0 + self.core.cost.abs())
+            && self.it.violation_max <= s.constraint_tolerance;
+        IterationOutcome::Accepted { step: alpha, converged }
+    }
+
+    /// No step was accepted: the warm-up updates its multipliers; a failed KKT/QP step hands
+    /// over to the warm-up; otherwise `mu` is raised.
+    fn reject_step(&mut self, problem: &Problem<NX, NU>, iteration: usize, failure: Option<Status>) -> IterationOutcome {
+        let s = self.settings;
+        self.log(iteration, 0.0, false);
+        if self.warm.active {
+            if self.update_multipliers(problem, true) {
+                return IterationOutcome::Converged;
+            }
+        } else if s.al_warm_start && self.rows.bound_offset > 0 {
+            // The KKT/QP step failed: typically a constraint row that the backward pass left out
+            // (pruned, or dependent on a control bound at a tangency) binds in a forward QP,
+            // whose control can move a relative-degree-r row only by O(dt^r), so the QP answers
+            // with a huge du. The warm-up's smooth penalty model has no such jumps: it takes over
+            // from here, with the multipliers of this backward pass, and runs to its own
+            // convergence.
+            self.enter_warm_up();
+            self.warm.kkt_failed = true;
+            return IterationOutcome::Rejected;
+        }
+        if let Some(Status::QpFailed { knot }) = failure {
+            return IterationOutcome::Failed(Status::QpFailed { knot });
+        }
+        if !self.core.reg.raise(&s.regularization) {
+            return IterationOutcome::Failed(failure.unwrap_or(Status::LineSearchFailed));
+        }
+        self.it.trust = s.trust_region;
+        IterationOutcome::Rejected
+    }
+
+    /// Phase 1, exposed for benchmarks and custom loops: derivatives of dynamics, costs and
+    /// constraint rows along the current trajectory.
+    pub fn linearize(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
+        self.check_problem(problem)?;
+        if !self.it.started {
+            self.start(problem)?;
+        }
+        self.linearize_now(problem);
+        Ok(())
+    }
+
+    /// Phase 2: the constrained backward pass with regularisation `mu`; `Ok(false)` when `Q_uu`
+    /// was not positive definite at some knot.
+    pub fn backward(&mut self, problem: &Problem<NX, NU>, mu: f64) -> Result<bool> {
+        self.check_problem(problem)?;
+        Ok(self.backward_with(problem, mu).is_ok())
+    }
+
+    /// Phase 3: the forward pass with step `alpha` (into scratch buffers, leaving the trajectory
+    /// unchanged). Returns the merit of the trial, or the status of the knot whose QP failed.
+    pub fn forward(&mut self, problem: &Problem<NX, NU>, alpha: f64) -> Result<std::result::Result<f64, Status>> {
+        self.check_problem(problem)?;
+        let done = self.fwd.run(
+            problem,
+            &mut self.core,
+            &self.rows,
+            &self.kkt,
+            alpha,
+            self.it.trust,
+            false,
+            self.settings.merit_penalty,
+        );
+        Ok(match done {
+            Forward::Done { cost } => Ok(cost + self.violation_of(true, true).term),
+            Forward::Infeasible { knot, .. } => Err(Status::Infeasible { knot }),
+            Forward::Failed { knot } => Err(Status::QpFailed { knot }),
+        })
+    }
+
+    // ----------------------------------------------------------------------------------------
+    // Internals.
+
+    fn log(&mut self, iteration: usize, step: f64, accepted: bool) {
+        if self.report.log.len() < self.report.log.capacity() {
+            self.report.log.push(IterationLog {
+                iteration,
+                cost: self.core.cost,
+                violation: self.it.violation_max,
+                gradient: self.core.expected.gradient,
+                step,
+                mu: self.core.reg.mu,
+                active: self.kkt.active,
+                accepted,
+                tightened: false,
+                warm_up: self.warm.active,
+            });
+        } else {
+            self.report.log_dropped += 1;
+        }
+    }
+
+    fn finish(&mut self, mut status: Status) {
+        let n = self.core.n;
+        if self.it.violation_max > self.settings.constraint_tolerance
+            && matches!(status, Status::Converged | Status::MaxIterations)
+        {
+            let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
+            if let Some(knot) = self.rows.first_violating_knot(&self.constraints, xs, us, n, self.settings.constraint_tolerance) {
+                status = Status::Infeasible { knot };
+            }
+        }
+        let original = self
+            .rows
+            .original_violation(&self.constraints, &self.core.traj.xs, &self.core.traj.us, n);
+        let r = &mut self.report;
+        r.status = status;
+        r.cost = self.core.cost;
+        r.gradient = self.core.expected.gradient;
+        r.mu = self.core.reg.mu;
+        r.max_violation = original;
+        r.max_violation_tightened = self.it.violation_max;
+        r.qp = *self.fwd.qp.stats();
+    }
+
+    /// The violation of the current (`trial = false`) or trial trajectory: under the current
+    /// phase's merit (`phase`), or only its largest violation (`phase = false`).
+    fn violation_of(&mut self, trial: bool, phase: bool) -> Violation {
+        let merit = if !phase {
+            Merit::Penalty(0.0)
+        } else if self.warm.active {
+            Merit::Lagrangian {
+                lambda: &self.warm.lambda,
+                rho: self.warm.rho,
+            }
+        } else {
+            Merit::Penalty(self.settings.merit_penalty)
+        };
+        let n = self.core.n;
+        let t = &self.core.traj;
+        let (xs, us) = if trial { (&t.xs_try, &t.us_try) } else { (&t.xs, &t.us) };
+        self.rows.violation(&self.constraints, xs, us, n, merit)
+    }
+
+    /// Recomputes the merit and the largest violation of the current trajectory (after the
+    /// margins, the multipliers or the phase changed).
+    fn refresh_merit(&mut self) {
+        let v = self.violation_of(false, true);
+        self.it.violation_max = v.max;
+        self.it.merit = self.core.cost + v.term;
+    }
+
+    /// Derivatives of dynamics and costs (the core), of the constraint rows, and in the warm-up
+    /// the augmented-Lagrangian terms, along the current trajectory.
+    fn linearize_now(&mut self, problem: &Problem<NX, NU>) {
+        self.core.linearize(problem);
+        let n = self.core.n;
+        let hessian = self.settings.constraint_hessian && !self.warm.active;
+        self.rows.linearize(
+            &self.constraints,
+            problem.bounds(),
+            &self.core.traj.xs,
+            &self.core.traj.us,
+            &self.core.lin.fx,
+            &self.core.lin.fu,
+            n,
+            hessian.then_some(&mut self.kkt.h_con[..]),
+        );
+        if self.warm.active {
+            self.add_al_derivatives();
+        }
+        self.it.need_linearize = false;
+    }
+}
+
+/// Prefixes an error's field with `constraints[j].`.
+fn name_constraint(j: usize, e: Error) -> Error {
+    match e {
+        Error::Shape { field, got, expected } => Error::Shape {
+            field: format!("constraints[{j}].{field}"),
+            got,
+            expected,
+        },
+        Error::Invalid { field, reason } => Error::Invalid {
+            field: format!("constraints[{j}].{field}"),
+            reason,
+        },
+        other => other,
+    }
+}
+
+/// The relative degree of state-only constraint `index`: the smallest `r` such that `u_k`
+/// moves, to first order, a state component the constraint depends on at `x_{k+r}`. Probed along
+/// the zero-control rollout of knot 0's dynamics from a slightly perturbed `x0` (so that symmetric
+/// points such as a car at rest do not hide a dependence).
+fn relative_degree<NX: Dim, NU: Dim>(
+    problem: &Problem<NX, NU>,
+    c: &dyn Constraint<NX, NU>,
+    index: usize,
+    max_degree: usize,
+    max_dim: usize,
+) -> Result<usize>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    if let Some(r) = c.relative_degree() {
+        if r == 0 || r > max_degree {
+            return Err(Error::invalid(
+                format!("constraints[{index}].relative_degree"),
+                format!("must be in 1..={max_degree} (settings.max_relative_degree), got {r}"),
+            ));
+        }
+        return Ok(r);
+    }
+    if c.dim() == 0 {
+        return Ok(1);
+    }
+    let dims = problem.dims();
+    let (nx, nu) = (dims.nx(), dims.nu());
+    let dynamics = &problem.knots()[0].dynamics;
+    let zero_u = dims.u_zeros();
+    let mut x = problem.x0().clone();
+    for i in 0..nx {
+        x[i] += 1e-3 * (1.0 + i as f64 / nx as f64);
+    }
+    // The state components any row depends on.
+    let (mut g, mut gx, mut gu) = (vec![0.0; max_dim], vec![dims.x_zeros(); max_dim], vec![dims.u_zeros(); max_dim]);
+    let d = c.dim();
+    let mut support = vec![false; nx];
+    let mut probe = x.clone();
+    for _ in 0..3 {
+        c.jacobians(1, &probe, &zero_u, &mut g[..d], &mut gx[..d], &mut gu[..d]);
+        for row in &gx[..d] {
+            for s in 0..nx {
+                support[s] |= row[s] != 0.0;
+            }
+        }
+        probe = dynamics.step(&probe, &zero_u);
+        probe.add_scalar_mut(1e-3);
+    }
+    if !support.iter().any(|&s| s) {
+        return Ok(1);
+    }
+    let (mut fx, mut fu) = (dims.xx_zeros(), dims.xu_zeros());
+    dynamics.jacobians(&x, &zero_u, &mut fx, &mut fu);
+    let mut reach = fu.clone(); // d x_{k+r} / d u_k
+    for r in 1..=max_degree {
+        let scale = 1.0 + reach.amax();
+        let hit = (0..nx).any(|s| support[s] && (0..nu).any(|j| reach[(s, j)].abs() > 1e-12 * scale));
+        if hit {
+            return Ok(r);
+        }
+        x = dynamics.step(&x, &zero_u);
+        dynamics.jacobians(&x, &zero_u, &mut fx, &mut fu);
+        reach = &fx * reach;
+    }
+    Err(Error::invalid(
+        format!("constraints[{index}]"),
+        format!(
+            "no control reaches this state constraint within {max_degree} steps \
+             (settings.max_relative_degree); state its relative degree or raise the limit"
+        ),
+    ))
+}
+

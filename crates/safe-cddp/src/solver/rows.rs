@@ -1,0 +1,322 @@
+//! The constraint rows of every knot: their layout, their linearisation along the trajectory,
+//! and the violation measures of the merit.
+//!
+//! Rows are gathered per knot `k`: mixed rows at `(x_k, u_k)`; state rows `g(x_{k+r})` moved to
+//! the knot whose control reaches them (Xie et al. 2017): `C = g_x Phi f_u`, `D = g_x Phi f_x`
+//! with `Phi = f_x(k+r-1) ... f_x(k+1)`; then the two sides of each control bound. A row
+//! `i` of knot `k` lives at index `k m + i` of every per-row buffer.
+
+use std::sync::Arc;
+
+use ddp_core::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
+use ddp_core::ControlBounds;
+
+use crate::Constraint;
+
+/// Where the rows of one constraint sit in a knot's row block.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Slot {
+    pub offset: usize,
+    pub dim: usize,
+    pub mixed: bool,
+    /// Relative degree `r` (state rows at knot `k` constrain `x_{k+r}`); 0 for mixed rows.
+    pub degree: usize,
+}
+
+impl Slot {
+    /// The time index of the rows of knot `k` (`None` past the horizon `n`).
+    #[inline]
+    pub fn time(&self, k: usize, n: usize) -> Option<usize> {
+        let t = if self.mixed { k } else { k + self.degree };
+        (t <= n).then_some(t)
+    }
+}
+
+/// The rows of every knot and their scratch buffers (sized at construction).
+pub(crate) struct Rows<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    pub slots: Vec<Slot>,
+    /// Rows per knot: every constraint row, then `2 nu` control-bound sides.
+    pub m: usize,
+    /// First control-bound row of a knot.
+    pub bound_offset: usize,
+    pub present: Vec<bool>,
+    /// `g` at the last linearisation.
+    pub g: Vec<f64>,
+    /// Tightening margins, eq. (20).
+    pub margin: Vec<f64>,
+    /// `C` (`g~_u`), eq. (8).
+    pub c: Vec<VectorN<NU>>,
+    /// `D` (`g~_x`), eq. (8).
+    pub d: Vec<VectorN<NX>>,
+    /// `g_x` at the row's own time.
+    pub gx: Vec<VectorN<NX>>,
+    /// `g_u` at the row's own time.
+    pub gu: Vec<VectorN<NU>>,
+    /// Multipliers of the KKT backward pass, eq. (10).
+    pub lambda: Vec<f64>,
+    pub sg: Vec<f64>,
+    pub sgx: Vec<VectorN<NX>>,
+    pub sgu: Vec<VectorN<NU>>,
+    pub sw: Vec<f64>,
+    pub zero_u: VectorN<NU>,
+    w: VectorN<NX>,
+    w2: VectorN<NX>,
+}
+
+/// The merit terms of the constraint rows along a trajectory (see [`Rows::violation`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Violation {
+    /// The merit term: `rho sum max(0, g~)`, or the augmented-Lagrangian sum in the warm-up.
+    pub term: f64,
+    /// The largest violation of a tightened row.
+    pub max: f64,
+}
+
+/// How the merit weighs violations: the exact penalty of the KKT phase or the
+/// augmented-Lagrangian term of the warm-up.
+#[derive(Clone, Copy)]
+pub(crate) enum Merit<'a> {
+    /// `rho sum max(0, g~)`
+    Penalty(f64),
+    /// `sum (max(0, lambda + rho g~)^2 - lambda^2) / (2 rho)`
+    Lagrangian { lambda: &'a [f64], rho: f64 },
+}
+
+impl<NX: Dim, NU: Dim> Rows<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    pub fn new(dims: Dims<NX, NU>, slots: Vec<Slot>, cap: usize) -> Self {
+        let bound_offset = slots.iter().map(|s| s.dim).sum::<usize>();
+        let max_dim = slots.iter().map(|s| s.dim).max().unwrap_or(0).max(1);
+        let m = bound_offset + 2 * dims.nu();
+        let rows = cap * m;
+        Self {
+            slots,
+            m,
+            bound_offset,
+            present: vec![false; rows],
+            g: vec![0.0; rows],
+            margin: vec![0.0; rows],
+            c: vec![dims.u_zeros(); rows],
+            d: vec![dims.x_zeros(); rows],
+            gx: vec![dims.x_zeros(); rows],
+            gu: vec![dims.u_zeros(); rows],
+            lambda: vec![0.0; rows],
+            sg: vec![0.0; max_dim],
+            sgx: vec![dims.x_zeros(); max_dim],
+            sgu: vec![dims.u_zeros(); max_dim],
+            sw: vec![0.0; max_dim],
+            zero_u: dims.u_zeros(),
+            w: dims.x_zeros(),
+            w2: dims.x_zeros(),
+        }
+    }
+
+    /// Linearises every row of knots `0 .. n` along `(xs, us)` (Jacobians `fx`, `fu` of the
+    /// dynamics already computed). With `hessian`, adds `lambda g_xx` of rows with a positive
+    /// multiplier to `h_con` at the row's time.
+    #[allow(clippy::too_many_arguments)]
+    pub fn linearize(
+        &mut self,
+        constraints: &[Arc<dyn Constraint<NX, NU>>],
+        bounds: Option<&ControlBounds<NU>>,
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        fx: &[MatrixN<NX, NX>],
+        fu: &[MatrixN<NX, NU>],
+        n: usize,
+        h_con: Option<&mut [MatrixN<NX, NX>]>,
+    ) {
+        let m = self.m;
+        let mut h_con = h_con;
+        if let Some(h) = h_con.as_deref_mut() {
+            h[..=n].iter_mut().for_each(|h| h.fill(0.0));
+        }
+        for k in 0..n {
+            for (j, slot) in self.slots.iter().enumerate() {
+                let base = k * m + slot.offset;
+                let dim = slot.dim;
+                let Some(t) = slot.time(k, n) else {
+                    self.present[base..base + dim].iter_mut().for_each(|p| *p = false);
+                    self.lambda[base..base + dim].iter_mut().for_each(|p| *p = 0.0);
+                    continue;
+                };
+                let c = &constraints[j];
+                let (x, u) = if slot.mixed {
+                    (&xs[k], &us[k])
+                } else {
+                    (&xs[t], &self.zero_u)
+                };
+                c.jacobians(t, x, u, &mut self.sg[..dim], &mut self.sgx[..dim], &mut self.sgu[..dim]);
+                let mut any_lambda = false;
+                for r in 0..dim {
+                    let i = base + r;
+                    self.present[i] = true;
+                    self.g[i] = self.sg[r];
+                    self.gx[i].copy_from(&self.sgx[r]);
+                    self.gu[i].copy_from(&self.sgu[r]);
+                    if slot.mixed {
+                        self.c[i].copy_from(&self.sgu[r]);
+                        self.d[i].copy_from(&self.sgx[r]);
+                    } else {
+                        // g(x_t) with x_t = f(..f(x_k, u_k)..): chain the Jacobians back to knot k.
+                        self.w.copy_from(&self.sgx[r]);
+                        for s in (k + 1..t).rev() {
+                            self.w2.gemv_tr(1.0, &fx[s], &self.w, 0.0);
+                            std::mem::swap(&mut self.w, &mut self.w2);
+                        }
+                        self.c[i].gemv_tr(1.0, &fu[k], &self.w, 0.0);
+                        self.d[i].gemv_tr(1.0, &fx[k], &self.w, 0.0);
+                    }
+                    self.sw[r] = self.lambda[i];
+                    any_lambda |= self.lambda[i] > 0.0;
+                }
+                if any_lambda {
+                    if let Some(h) = h_con.as_deref_mut() {
+                        c.add_hessian(t, x, u, &self.sw[..dim], &mut h[t]);
+                    }
+                }
+            }
+            // Control bounds: u_i - hi_i <= 0 and lo_i - u_i <= 0.
+            for i in 0..self.zero_u.len() {
+                let (up, lo) = (k * m + self.bound_offset + 2 * i, k * m + self.bound_offset + 2 * i + 1);
+                let (hi_v, lo_v) = match bounds {
+                    Some(b) => (b.upper[i], b.lower[i]),
+                    None => (f64::INFINITY, f64::NEG_INFINITY),
+                };
+                self.present[up] = hi_v.is_finite();
+                self.g[up] = us[k][i] - hi_v;
+                self.c[up].fill(0.0);
+                self.c[up][i] = 1.0;
+                self.gu[up].copy_from(&self.c[up]);
+                self.d[up].fill(0.0);
+                self.gx[up].fill(0.0);
+                self.present[lo] = lo_v.is_finite();
+                self.g[lo] = lo_v - us[k][i];
+                self.c[lo].fill(0.0);
+                self.c[lo][i] = -1.0;
+                self.gu[lo].copy_from(&self.c[lo]);
+                self.d[lo].fill(0.0);
+                self.gx[lo].fill(0.0);
+            }
+        }
+    }
+
+    /// Visits every constraint row of knots `0 .. n` evaluated along `(xs, us)`: calls
+    /// `f(k, row index, g + margin)`.
+    fn for_each_row(
+        &mut self,
+        constraints: &[Arc<dyn Constraint<NX, NU>>],
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        n: usize,
+        mut f: impl FnMut(usize, usize, f64),
+    ) {
+        for k in 0..n {
+            for (j, slot) in self.slots.iter().enumerate() {
+                if slot.dim == 0 {
+                    continue;
+                }
+                let Some(t) = slot.time(k, n) else { continue };
+                let g = &mut self.sg[..slot.dim];
+                if slot.mixed {
+                    constraints[j].evaluate(t, &xs[k], &us[k], g);
+                } else {
+                    constraints[j].evaluate(t, &xs[t], &self.zero_u, g);
+                }
+                let base = k * self.m + slot.offset;
+                for r in 0..slot.dim {
+                    f(k, base + r, g[r] + self.margin[base + r]);
+                }
+            }
+        }
+    }
+
+    /// The merit term of the constraint rows (the control bounds hold by projection) and the
+    /// largest violation of a tightened row, along `(xs, us)`.
+    pub fn violation(
+        &mut self,
+        constraints: &[Arc<dyn Constraint<NX, NU>>],
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        n: usize,
+        merit: Merit<'_>,
+    ) -> Violation {
+        let (mut sum, mut al, mut max) = (0.0, 0.0, 0.0f64);
+        self.for_each_row(constraints, xs, us, n, |_, i, v| {
+            if v > 0.0 {
+                sum += v;
+                max = max.max(v);
+            }
+            if let Merit::Lagrangian { lambda, rho } = merit {
+                let lam = lambda[i];
+                let nu = (lam + rho * v).max(0.0);
+                al += (nu * nu - lam * lam) / (2.0 * rho);
+            }
+        });
+        let term = match merit {
+            Merit::Penalty(rho) => rho * sum,
+            Merit::Lagrangian { .. } => al,
+        };
+        Violation { term, max }
+    }
+
+    /// The first knot whose rows, evaluated along `(xs, us)`, violate a tightened row by more
+    /// than `tol`; `None` when there is none.
+    pub fn first_violating_knot(
+        &mut self,
+        constraints: &[Arc<dyn Constraint<NX, NU>>],
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        n: usize,
+        tol: f64,
+    ) -> Option<usize> {
+        let mut first: Option<usize> = None;
+        self.for_each_row(constraints, xs, us, n, |k, _, v| {
+            if v > tol && first.is_none_or(|f| k < f) {
+                first = Some(k);
+            }
+        });
+        first
+    }
+
+    /// Largest violation of the original constraints over `x_1 .. x_n` (state rows) and
+    /// `(x_k, u_k)` (mixed rows), regardless of the relative degree and the margins.
+    pub fn original_violation(
+        &mut self,
+        constraints: &[Arc<dyn Constraint<NX, NU>>],
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        n: usize,
+    ) -> f64 {
+        let mut worst = 0.0f64;
+        for (j, slot) in self.slots.iter().enumerate() {
+            let c = &constraints[j];
+            let g = &mut self.sg[..slot.dim];
+            if slot.mixed {
+                for k in 0..n {
+                    c.evaluate(k, &xs[k], &us[k], g);
+                    worst = g.iter().fold(worst, |w, &v| w.max(v));
+                }
+            } else {
+                for t in 1..=n {
+                    c.evaluate(t, &xs[t], &self.zero_u, g);
+                    worst = g.iter().fold(worst, |w, &v| w.max(v));
+                }
+            }
+        }
+        worst
+    }
+
+    /// Drops knot 0 of every per-row buffer that carries over between solves (receding horizon).
+    pub fn shift(&mut self, n: usize, al_lambda: &mut [f64]) {
+        let m = self.m;
+        self.lambda.copy_within(m..n * m, 0);
+        al_lambda.copy_within(m..n * m, 0);
+        self.margin.copy_within(m..n * m, 0);
+    }
+}

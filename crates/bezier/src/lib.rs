@@ -43,6 +43,7 @@
 // `!(x > 0.0)` is deliberate throughout: it is true for NaN, which must take the defined path.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod accuracy;
 pub mod bernstein;
 mod bezier;
 mod branch_tables;

@@ -22,6 +22,7 @@
 
 use ddp_core::error::check_finite;
 use ddp_core::{Error, Matrix, Result, Vector};
+use ddpkit_util::check::positive;
 use nalgebra::Matrix2;
 
 use crate::constraints::{CircleForm, MovingCircle};
@@ -34,14 +35,6 @@ pub struct ObstacleTracker {
     r: f64,
     a: Vector<4>,
     p: Matrix<4, 4>,
-}
-
-fn positive(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(Error::invalid(field, format!("must be finite and > 0, got {v}")))
-    }
 }
 
 impl ObstacleTracker {

@@ -52,7 +52,7 @@ use ddp_core::{ControlBounds, Dynamics, Method, Problem, Settings, Solver, Statu
 use subgoal_infer::grid::{nearest_free, AStar, AStarParams};
 use subgoal_infer::DistanceFieldHinge;
 
-use crate::error::{check_nonnegative, check_positive, Error, Result};
+use crate::error::{nonnegative, positive, Error, Result};
 use crate::perception::Perception;
 
 /// The planner's optimisation problem (defaults: the table in the module docs).
@@ -140,8 +140,8 @@ impl DdpParams {
         if self.subgoal_every == 0 {
             return Err(Error::invalid("ddp.subgoal_every", "must be at least 1"));
         }
-        check_positive("ddp.dt", self.dt)?;
-        check_positive("ddp.eps", self.eps)?;
+        positive("ddp.dt", self.dt)?;
+        positive("ddp.eps", self.eps)?;
         for (n, v) in [
             ("w_control", self.w_control),
             ("w_goal", self.w_goal),
@@ -153,7 +153,7 @@ impl DdpParams {
             ("w_subgoal", self.w_subgoal),
             ("w_max", self.w_max),
         ] {
-            check_nonnegative(&format!("ddp.{n}"), v)?;
+            nonnegative(&format!("ddp.{n}"), v)?;
         }
         if !(self.subgoal_v_min.is_finite() && self.subgoal_v_min <= self.v_max) {
             return Err(Error::invalid(
@@ -364,7 +364,7 @@ impl DdpPlanner {
     /// vanilla DDP.
     pub fn set_subgoals(&mut self, subgoals: &[[f64; 2]]) -> Result<()> {
         for (i, s) in subgoals.iter().enumerate() {
-            crate::error::check_finite2(&format!("subgoals[{i}]"), *s)?;
+            crate::error::finite_each(&format!("subgoals[{i}]"), *s)?;
         }
         self.subgoals.clear();
         self.subgoals.extend_from_slice(subgoals);

@@ -12,7 +12,7 @@
 
 use std::time::Instant;
 
-use crate::error::{check_positive, Error, Result};
+use crate::error::{positive, Error, Result};
 use crate::governor::{govern, GovernorParams};
 use crate::perception::{Perception, PerceptionParams};
 use crate::planner::{DdpParams, Plan, PlanRequest, PlannerKind, FAR_AHEAD};
@@ -110,8 +110,8 @@ impl Default for RunConfig {
 impl RunConfig {
     /// Rejects impossible values, naming the field.
     pub fn validate(&self) -> Result<()> {
-        check_positive("control_dt", self.control_dt)?;
-        check_positive("physics_dt", self.physics_dt)?;
+        positive("control_dt", self.control_dt)?;
+        positive("physics_dt", self.physics_dt)?;
         if self.physics_dt > self.control_dt {
             return Err(Error::invalid("physics_dt", "must be <= control_dt"));
         }
@@ -129,10 +129,11 @@ impl RunConfig {
                 format!("must equal control_dt = {} (got {})", self.control_dt, self.ddp.dt),
             ));
         }
-        check_positive("goal_tolerance", self.goal_tolerance)?;
-        check_positive("stall_time", self.stall_time)?;
-        check_positive("stall_distance", self.stall_distance)?;
-        check_positive("max_time", self.max_time)
+        positive("goal_tolerance", self.goal_tolerance)?;
+        positive("stall_time", self.stall_time)?;
+        positive("stall_distance", self.stall_distance)?;
+        positive("max_time", self.max_time)?;
+        Ok(())
     }
 }
 

@@ -54,7 +54,7 @@ use safe_cddp::constraints::Circle;
 use safe_cddp::{Constraint, IterationOutcome, SafeCddpSolver, Settings, Status, Tightening};
 use serde::Serialize;
 
-use crate::error::{check_nonnegative, check_positive, Error, Result};
+use crate::error::{finite_each, nonnegative, positive, Error, Result};
 use crate::route::Route;
 use crate::run::Stats;
 use crate::scenario::{Obstacle, Scenario};
@@ -259,47 +259,35 @@ impl TurtlebotConfig {
     }
 }
 
-fn check_finite(field: &str, values: &[f64]) -> Result<()> {
-    for (i, v) in values.iter().enumerate() {
-        if !v.is_finite() {
-            return Err(Error::invalid(
-                format!("{field}[{i}]"),
-                format!("must be finite, got {v}"),
-            ));
-        }
-    }
-    Ok(())
-}
-
 impl TurtlebotConfig {
     /// Rejects impossible values, naming the field.
     pub fn validate(&self) -> Result<()> {
-        check_finite("start", &self.start)?;
-        check_finite("goal", &self.goal)?;
+        finite_each("start", &self.start)?;
+        finite_each("goal", &self.goal)?;
         for (i, d) in self.discs.iter().enumerate() {
-            check_finite(&format!("discs[{i}].center"), &d.center)?;
-            check_positive(&format!("discs[{i}].radius"), d.radius)?;
+            finite_each(&format!("discs[{i}].center"), &d.center)?;
+            positive(&format!("discs[{i}].radius"), d.radius)?;
         }
         if self.horizon == 0 {
             return Err(Error::invalid("horizon", "must be at least 1"));
         }
-        check_positive("dt", self.dt)?;
-        check_positive("physics_dt", self.physics_dt)?;
+        positive("dt", self.dt)?;
+        positive("physics_dt", self.physics_dt)?;
         if self.physics_dt > self.dt {
             return Err(Error::invalid("physics_dt", "must be <= dt"));
         }
-        check_positive("track_width", self.track_width)?;
-        check_positive("wheel_speed_max", self.wheel_speed_max)?;
-        check_nonnegative("control_weight", self.control_weight)?;
+        positive("track_width", self.track_width)?;
+        positive("wheel_speed_max", self.wheel_speed_max)?;
+        nonnegative("control_weight", self.control_weight)?;
         for (i, w) in self.terminal_weights.iter().enumerate() {
-            check_nonnegative(&format!("terminal_weights[{i}]"), *w)?;
+            nonnegative(&format!("terminal_weights[{i}]"), *w)?;
         }
         self.robot.validate()?;
-        check_nonnegative("inflation", self.inflation)?;
-        check_nonnegative("sigma_xy", self.sigma_xy)?;
-        check_nonnegative("sigma_theta", self.sigma_theta)?;
+        nonnegative("inflation", self.inflation)?;
+        nonnegative("sigma_xy", self.sigma_xy)?;
+        nonnegative("sigma_theta", self.sigma_theta)?;
         for (i, s) in self.sigma_w.iter().enumerate() {
-            check_nonnegative(&format!("sigma_w[{i}]"), *s)?;
+            nonnegative(&format!("sigma_w[{i}]"), *s)?;
         }
         for (name, v) in [
             ("iterations", self.iterations),
@@ -315,7 +303,8 @@ impl TurtlebotConfig {
         if self.min_horizon > self.horizon {
             return Err(Error::invalid("min_horizon", "must be <= horizon"));
         }
-        check_positive("goal_radius", self.goal_radius)
+        positive("goal_radius", self.goal_radius)?;
+        Ok(())
     }
 
     /// The deterministic optimal-control problem from the start pose (horizon `N`, wheel-speed box).
@@ -833,21 +822,6 @@ pub fn experiment_json(e: &Experiment, with_paths: bool) -> serde_json::Value {
     })
 }
 
-/// Writes `text` to `path` whole or not at all (a `.partial` file, then a rename).
-pub fn write_atomic(path: &std::path::Path, text: &[u8]) -> Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
-    }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".partial");
-    let tmp = std::path::PathBuf::from(tmp);
-    std::fs::write(&tmp, text).map_err(|e| Error::write(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::write(path, e)
-    })
-}
-
 /// Draws the Fig. 5-like figure of `e` to the PNG `path`, whole or not at all: (a) the driven
 /// paths, (b) the histograms of the minimum clearance (see the private `figure` module's docs,
 /// repeated in the README).
@@ -874,25 +848,20 @@ mod figure {
 
     pub(super) fn draw(path: &Path, e: &Experiment) -> Result<()> {
         let (w, h) = (1300u32, 620u32);
-        let stem = path.file_stem().and_then(|x| x.to_str()).unwrap_or("figure");
-        let tmp = path.with_file_name(format!("{stem}.tmp.png"));
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|err| Error::write(dir, err))?;
         }
-        let result = (|| -> std::result::Result<(), Box<dyn std::error::Error>> {
-            let root = BitMapBackend::new(&tmp, (w, h)).into_drawing_area();
+        let draw = |tmp: &Path| -> std::result::Result<(), Box<dyn std::error::Error>> {
+            let root = BitMapBackend::new(tmp, (w, h)).into_drawing_area();
             root.fill(&WHITE)?;
             let (left, right) = root.split_horizontally(620);
             top_view(&left, e)?;
             histograms(&right, e)?;
             root.present()?;
             Ok(())
-        })();
-        if let Err(err) = result {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(Error::write(path, err));
-        }
-        std::fs::rename(&tmp, path).map_err(|err| Error::write(path, err))
+        };
+        // A temporary PNG next to `path`, renamed when complete.
+        ddpkit_util::fs::write_atomic_at(path, draw).map_err(|err| Error::write(path, err))
     }
 
     fn top_view<DB: DrawingBackend>(

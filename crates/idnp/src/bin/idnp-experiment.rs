@@ -64,10 +64,8 @@ fn write_json(path: &PathBuf, result: &ExperimentResult) -> Result<(), String> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     }
-    let tmp = path.with_extension("json.tmp");
     let text = serde_json::to_string_pretty(result).map_err(|e| format!("cannot serialise the results: {e}"))?;
-    std::fs::write(&tmp, text).map_err(|e| format!("cannot write {}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("cannot rename {} to {}: {e}", tmp.display(), path.display()))
+    ddpkit_util::fs::write_atomic(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 fn run(args: Args) -> Result<bool, String> {

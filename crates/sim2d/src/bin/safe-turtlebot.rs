@@ -15,9 +15,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
-use sim2d::turtlebot::{
-    experiment_json, run_experiment, write_atomic, write_figure, Summary, Turtlebot, TurtlebotConfig,
-};
+use sim2d::turtlebot::{experiment_json, run_experiment, write_figure, Summary, Turtlebot, TurtlebotConfig};
 
 /// CDDP versus Safe-CDDP on a simulated Turtlebot3 (paper 003, §IV-C).
 #[derive(Debug, Parser)]
@@ -145,8 +143,7 @@ fn run(args: Args) -> sim2d::Result<()> {
     if let Some(path) = &args.json {
         let mut v = experiment_json(&e, args.paths);
         v["wall_s"] = serde_json::json!(wall);
-        let text = serde_json::to_vec_pretty(&v).map_err(|err| sim2d::Error::write(path, err))?;
-        write_atomic(path, &text)?;
+        sim2d::batch::write_json(path, &v)?;
         println!("wrote {}", path.display());
     }
     if let Some(path) = &args.png {

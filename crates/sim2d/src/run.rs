@@ -12,10 +12,12 @@
 
 use std::time::Instant;
 
+use crate::ddpen::DdpenParams;
 use crate::error::{positive, Error, Result};
 use crate::governor::{govern, GovernorParams};
 use crate::perception::{Perception, PerceptionParams};
-use crate::planner::{DdpParams, Plan, PlanRequest, PlannerKind, FAR_AHEAD};
+use crate::planner::{DdpParams, Plan, PlanRequest, FAR_AHEAD};
+use crate::registry::PlannerKind;
 use crate::route::{dist, Route};
 use crate::scenario::Scenario;
 use crate::world::{LidarParams, RobotParams, Scan, World};
@@ -69,6 +71,9 @@ pub struct RunConfig {
     pub perception: PerceptionParams,
     /// The planner's problem.
     pub ddp: DdpParams,
+    /// DDPEN's parameters (sub-goal weight and cadence, speed bound, model), used by `ddpen` and
+    /// `ddpen-oracle`.
+    pub ddpen: DdpenParams,
     /// The executor's speed governor ([`crate::governor`]).
     pub governor: GovernorParams,
     /// The run ends as completed within this distance of the route's end (m).
@@ -87,7 +92,7 @@ pub struct RunConfig {
 impl Default for RunConfig {
     fn default() -> Self {
         Self {
-            planner: PlannerKind::Ddp,
+            planner: PlannerKind::DDP,
             direction: Direction::Forward,
             seed: 0,
             control_dt: 0.1,
@@ -97,6 +102,7 @@ impl Default for RunConfig {
             lidar: LidarParams::default(),
             perception: PerceptionParams::default(),
             ddp: DdpParams::default(),
+            ddpen: DdpenParams::default(),
             governor: GovernorParams::default(),
             goal_tolerance: 1.0,
             stall_time: 30.0,
@@ -122,6 +128,7 @@ impl RunConfig {
         self.lidar.validate()?;
         self.perception.validate()?;
         self.ddp.validate()?;
+        self.ddpen.validate(&self.ddp)?;
         self.governor.validate()?;
         if (self.ddp.dt - self.control_dt).abs() > 1e-12 {
             return Err(Error::invalid(
@@ -346,7 +353,7 @@ pub fn run_scenario_with(
         config.seed,
     )?;
     let mut perception = Perception::new(config.perception)?;
-    let mut planner = config.planner.build(&config.ddp)?;
+    let mut planner = config.planner.build(&config.ddp, &config.ddpen)?;
     let info = RunInfo {
         scenario,
         route: &route,

@@ -1,10 +1,10 @@
-//! A PNG like Fig. 3 of paper 001: the obstacles (grey), the goal ball (green), the leaves of the
-//! refined grids (all time indices overlaid: root cells light, split cells darker), the waypoints
-//! of the first iterations (red, orange, blue, purple: iterations 1, 2, 3, 4), and the TCP path
-//! of the final trajectory (black) with the robot drawn at a few knots; crosses mark the points
-//! each iteration found infeasible (waypoints that could not be mapped, colliding TCP positions).
-//! No text, so no font is needed. The figure is drawn to a temporary PNG next to `path` and
-//! renamed: it is whole or absent.
+//! A PNG like Fig. 3 of Richter et al. (2023): the obstacles (grey), the goal ball (green), the
+//! leaves of the refined grids (all time indices overlaid: root cells light, split cells darker),
+//! the waypoints of the first iterations (red, orange, blue, purple: iterations 1, 2, 3, 4), and
+//! the TCP path of the final trajectory (black) with the robot drawn at a few knots; crosses mark
+//! the points each iteration found infeasible (waypoints that could not be mapped, colliding TCP
+//! positions). No text, so no font is needed. The figure is drawn to a temporary PNG next to `path`
+//! and renamed: it is whole or absent.
 
 use std::path::Path;
 

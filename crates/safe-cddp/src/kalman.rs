@@ -1,7 +1,7 @@
-//! Constant-velocity Kalman filter for a moving obstacle (paper 002), and its prediction as a
-//! [`MovingCircle`] constraint whose margin grows along the horizon.
+//! Constant-velocity Kalman filter for a moving obstacle, after Queen Elizabeth's School (2022),
+//! and its prediction as a [`MovingCircle`] constraint whose margin grows along the horizon.
 //!
-//! State `a = (px, vx, py, vy)`, one block per axis as in paper 002:
+//! State `a = (px, vx, py, vy)`, one block per axis as in Queen Elizabeth's School (2022):
 //!
 //! ```text
 //! a_{t+1} = F a_t + G w_t,   F = diag(A, A), A = [1 s; 0 1],   G = diag(B, B), B = [s^2/2; s]

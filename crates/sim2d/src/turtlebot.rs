@@ -1,4 +1,4 @@
-//! The Safe-CDDP hardware experiment (Alcan and Kyrki, paper 003, §IV-C and Fig. 5) in
+//! The Safe-CDDP hardware experiment (Alcan and Kyrki (2022), §IV-C and Fig. 5) in
 //! simulation: a Turtlebot3-sized differential-drive robot drives from `(0, 0, 0)` to
 //! `(1.4, 0.6, 0)` past two discs, r = 0.15 m at (0.85, 0) and r = 0.11 m at (0.5, 0.85), under
 //! the shrinking-horizon MPC of Algorithm 1 (N = 90 knots of 0.1 s, `n1 = 10` iterations per
@@ -359,7 +359,7 @@ impl TurtlebotConfig {
     pub fn scenario(&self) -> Result<Scenario> {
         Ok(Scenario {
             name: "turtlebot".into(),
-            description: "Safe-CDDP hardware experiment (paper 003, §IV-C)".into(),
+            description: "Safe-CDDP hardware experiment (Alcan and Kyrki (2022), §IV-C)".into(),
             route: Route::new(vec![[self.start[0], self.start[1]], [self.goal[0], self.goal[1]]])?,
             obstacles: self
                 .discs
@@ -803,7 +803,7 @@ pub fn experiment_json(e: &Experiment, with_paths: bool) -> serde_json::Value {
     };
     let clear = |rs: &[TurtlebotRun]| rs.iter().map(|r| r.min_clearance).collect::<Vec<_>>();
     serde_json::json!({
-        "experiment": "safe-turtlebot (paper 003, §IV-C, Fig. 5)",
+        "experiment": "safe-turtlebot (Alcan and Kyrki (2022), §IV-C, Fig. 5)",
         "config": e.config,
         "seed": e.seed,
         "beta": e.beta,

@@ -1,4 +1,4 @@
-//! The experiment of paper 001, Section V (issue #7): seeded initial conditions, each solved by
+//! The experiment of Richter et al. (2023), Section V: seeded initial conditions, each solved by
 //! fixed-grid IDNP, adaptive IDNP and the NLP alone; prints the table, checks that the adaptive
 //! grid never solves fewer cases than the fixed one, and writes a figure like Fig. 3.
 //!
@@ -17,8 +17,8 @@ use idnp::idnp::Variant;
 use idnp::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 
-/// IDNP with adaptive grid refinement: the experiment of paper 001 on a planar base with a 2-link
-/// arm and a narrow passage.
+/// IDNP with adaptive grid refinement: the experiment of Richter et al. (2023) on a planar base
+/// with a 2-link arm and a narrow passage.
 #[derive(Parser, Debug)]
 #[command(version, about)]
 struct Args {

@@ -1,5 +1,6 @@
-//! The Safe-CDDP hardware experiment (paper 003, §IV-C, Fig. 5) in simulation: a Turtlebot3
-//! Burger in sim2d's rapier world, CDDP versus Safe-CDDP (`beta = 0.8`) over seeded episodes.
+//! The Safe-CDDP hardware experiment (Alcan and Kyrki (2022), §IV-C, Fig. 5) in simulation: a
+//! Turtlebot3 Burger in sim2d's rapier world, CDDP versus Safe-CDDP (`beta = 0.8`) over seeded
+//! episodes.
 //!
 //! ```text
 //! cargo run --release -p sim2d --bin safe-turtlebot -- --runs 100 --seed 1 \
@@ -17,7 +18,7 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use sim2d::turtlebot::{experiment_json, run_experiment, write_figure, Summary, Turtlebot, TurtlebotConfig};
 
-/// CDDP versus Safe-CDDP on a simulated Turtlebot3 (paper 003, §IV-C).
+/// CDDP versus Safe-CDDP on a simulated Turtlebot3 (Alcan and Kyrki (2022), §IV-C).
 #[derive(Debug, Parser)]
 #[command(version)]
 struct Args {

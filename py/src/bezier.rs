@@ -28,6 +28,7 @@ use ::bezier::{
     Vec2, DEFAULT_ACCURACY,
 };
 use ddp_core::Error as DdpError;
+use ddpkit_util::check::{self, CheckError, Requirement};
 use numpy::ndarray::{Array1, ArrayD, IxDyn};
 use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -60,37 +61,37 @@ fn be(e: BzError) -> CoreError {
     }
 }
 
+/// A failed scalar check as a ddpkit error: NaN and infinities are `NotFinite`, finite values
+/// out of range `Invalid` (`must be > 0, got -1`).
+fn checked(e: CheckError) -> CoreError {
+    if !e.value.is_finite() {
+        return CoreError(DdpError::NotFinite {
+            field: e.field,
+            index: 0,
+            value: e.value,
+        });
+    }
+    let bound = match e.requirement {
+        Requirement::Positive => "> 0",
+        Requirement::Nonnegative => ">= 0",
+        Requirement::Finite => unreachable!("a finite value passes the finiteness check"),
+    };
+    invalid(e.field, format!("must be {bound}, got {}", e.value))
+}
+
 /// Rejects NaN and infinities in a scalar argument.
 fn finite(field: &str, v: f64) -> CoreResult<f64> {
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(CoreError(DdpError::NotFinite {
-            field: field.to_string(),
-            index: 0,
-            value: v,
-        }))
-    }
+    check::finite(field, v).map_err(checked)
 }
 
 /// A finite, strictly positive scalar.
 fn positive(field: &str, v: f64) -> CoreResult<f64> {
-    finite(field, v)?;
-    if v > 0.0 {
-        Ok(v)
-    } else {
-        Err(invalid(field, format!("must be > 0, got {v}")))
-    }
+    check::positive(field, v).map_err(checked)
 }
 
 /// A finite, non-negative scalar.
 fn nonnegative(field: &str, v: f64) -> CoreResult<f64> {
-    finite(field, v)?;
-    if v >= 0.0 {
-        Ok(v)
-    } else {
-        Err(invalid(field, format!("must be >= 0, got {v}")))
-    }
+    check::nonnegative(field, v).map_err(checked)
 }
 
 /// An accuracy: finite and > 0.

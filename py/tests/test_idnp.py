@@ -1,4 +1,4 @@
-"""ddpkit.idnp: IDNP with adaptive grid refinement (paper 001) through the wheel.
+"""ddpkit.idnp: IDNP with adaptive grid refinement after Richter et al. (2023), through the wheel.
 
 The results are checked independently of the Rust side: the trajectory is re-simulated with
 ``ddpkit.ArmBase``, the tool-centre point (TCP) is computed by its forward kinematics, and the

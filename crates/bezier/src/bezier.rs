@@ -232,7 +232,7 @@ impl<const N: usize> ParamCurveArclen for Bezier<N> {
     fn inv_arclen(&self, s: f64, accuracy: f64) -> f64 {
         let h = self.hodograph_array();
         let hodo = &h[..N.saturating_sub(1).max(1)];
-        let acc = quadrature::sanitize_accuracy(accuracy);
+        let acc = crate::accuracy::sanitize_accuracy(accuracy);
         let total = self.arclen(0.25 * acc);
         // Newton steps (no second derivative passed).
         let speed = |t: f64| (bernstein::eval_bernstein(hodo, t).to_vec2().hypot(), 0.0);
@@ -457,7 +457,7 @@ impl ParamCurveArclen for BezierDyn {
 
     fn inv_arclen(&self, s: f64, accuracy: f64) -> f64 {
         let h = self.deriv();
-        let acc = quadrature::sanitize_accuracy(accuracy);
+        let acc = crate::accuracy::sanitize_accuracy(accuracy);
         let total = self.arclen(0.25 * acc);
         // Newton steps (no second derivative passed).
         let speed = |t: f64| (bernstein::eval_bernstein(&h.points, t).to_vec2().hypot(), 0.0);

@@ -225,7 +225,7 @@ impl CubicArclen {
     /// See [`ParamCurveArclen::inv_arclen`]; `total` is the curve's length if known (else pass
     /// `None` and it is computed).
     pub fn inv_arclen(&self, s: f64, total: Option<f64>, accuracy: f64) -> f64 {
-        let acc = quadrature::sanitize_accuracy(accuracy);
+        let acc = crate::accuracy::sanitize_accuracy(accuracy);
         let total = total.unwrap_or_else(|| self.arclen_range(0.0, 1.0, 0.25 * acc));
         quadrature::inv_arclen_with(
             |t| self.speed_and_rate(t),
@@ -343,7 +343,7 @@ impl ParamCurveArclen for CubicBez {
 
     fn resample_uniform(&self, n: usize, accuracy: f64) -> Vec<f64> {
         let e = CubicArclen::new(self);
-        let acc = quadrature::sanitize_accuracy(accuracy);
+        let acc = crate::accuracy::sanitize_accuracy(accuracy);
         let total = if n < 2 {
             0.0
         } else {

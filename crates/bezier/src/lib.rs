@@ -1,12 +1,12 @@
 //! # bezier
 //!
-//! Bézier curves and splines for robot trajectories (after paper 002, *Developing a
-//! Minimum-Error Trajectory Generation Framework*): evaluation, derivatives, curvature, exact
-//! bounding boxes, subdivision, degree elevation, arc length (a-priori adaptive Gauss-Legendre
-//! to `1e-10` and beyond, with AVX-512 or AVX2 sums chosen at run time and a batch form,
-//! [`CubicBez::arclen_batch`]; and Simpson's rule as in the paper), inverse arc length, uniform
-//! resampling; C1/C2 splines through waypoints with the paper's jerk and curvature costs and a
-//! direct optimiser; the sigmoid motion profile and the time-parametrised trajectory, sampled
+//! Bézier curves and splines for robot trajectories (after Queen Elizabeth's School (2022),
+//! *Developing a Minimum-Error Trajectory Generation Framework*): evaluation, derivatives,
+//! curvature, exact bounding boxes, subdivision, degree elevation, arc length (a-priori adaptive
+//! Gauss-Legendre to `1e-10` and beyond, with AVX-512 or AVX2 sums chosen at run time and a batch
+//! form, [`CubicBez::arclen_batch`]; and Simpson's rule as in the paper), inverse arc length,
+//! uniform resampling; C1/C2 splines through waypoints with the paper's jerk and curvature costs
+//! and a direct optimiser; the sigmoid motion profile and the time-parametrised trajectory, sampled
 //! as states and controls for the unicycle and car models of `ddp-core`.
 //!
 //! ```
@@ -43,6 +43,7 @@
 // `!(x > 0.0)` is deliberate throughout: it is true for NaN, which must take the defined path.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod accuracy;
 pub mod bernstein;
 mod bezier;
 mod branch_tables;

@@ -16,7 +16,7 @@
 use crate::bernstein;
 use crate::error::{check_points, Result};
 use crate::point::{Point, Rect, Vec2};
-use crate::quadrature::{self, integrate_apriori, Complex, Singularities};
+use crate::quadrature::{integrate_apriori, Complex, Singularities};
 use crate::traits::{ParamCurve, ParamCurveArclen, ParamCurveCurvature, ParamCurveDeriv, ParamCurveExtrema};
 use crate::Bezier;
 
@@ -199,7 +199,7 @@ impl ParamCurveArclen for QuadBez {
             &sing,
             t0,
             t1,
-            quadrature::sanitize_accuracy(accuracy),
+            crate::accuracy::sanitize_accuracy(accuracy),
         )
     }
 }

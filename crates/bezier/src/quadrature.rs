@@ -44,30 +44,15 @@
 //! ([`crate::CubicBez::arclen_batch`]), which computes the roots of the curves that need them
 //! four at a time and returns what one curve at a time would, bit for bit.
 
+use crate::accuracy::{sanitize_accuracy, RELATIVE_ACCURACY_FLOOR};
 use crate::branch_tables::{BRANCH_IN, BRANCH_KMAX, BRANCH_KMIN, BRANCH_OUT, BRANCH_SUB_BITS};
 use crate::gauss_legendre::{GL10, GL12, GL16, GL20, GL24, GL32, GL4, GL48, GL6, GL64, GL8, ORDERS, RULES};
 use crate::point::Vec2;
-#[cfg(doc)]
-use crate::traits::ParamCurveArclen;
-use crate::traits::{DEFAULT_ACCURACY, RELATIVE_ACCURACY_FLOOR};
 
 /// Most intervals one adaptive integration may create (guards against pathological input).
 const MAX_LEAVES: u32 = 4096;
 /// Deepest subdivision.
 const MAX_DEPTH: u32 = 64;
-
-/// NaN becomes [`DEFAULT_ACCURACY`]; zero or negative becomes the smallest positive accuracy
-/// (the integrators then raise it to [`RELATIVE_ACCURACY_FLOOR`] times the integral's size).
-#[inline]
-pub(crate) fn sanitize_accuracy(accuracy: f64) -> f64 {
-    if accuracy.is_nan() {
-        DEFAULT_ACCURACY
-    } else if accuracy <= 0.0 {
-        f64::MIN_POSITIVE
-    } else {
-        accuracy
-    }
-}
 
 /// The larger of `a` and `b`, or `b` when either is NaN: one `maxsd`, where `f64::max` (which
 /// ignores a NaN operand) costs four more instructions.
@@ -1240,7 +1225,8 @@ pub(crate) fn solve_arclen<S: Fn(f64) -> (f64, f64), R: Fn(f64, f64, f64) -> f64
     t
 }
 
-/// Default inverse arc length for any [`ParamCurveArclen`] given its total length.
+/// Default inverse arc length for any curve given its total length (see
+/// `ParamCurveArclen::inv_arclen`).
 pub(crate) fn inv_arclen_with<S: Fn(f64) -> (f64, f64), R: Fn(f64, f64, f64) -> f64>(
     speed: S,
     range: R,

@@ -24,14 +24,8 @@
 //! assert!((t - 0.5).abs() < 1e-9 / 4.5 + 1e-15);
 //! ```
 
+pub use crate::accuracy::{DEFAULT_ACCURACY, RELATIVE_ACCURACY_FLOOR};
 use crate::point::{Point, Rect, Vec2};
-
-/// The accuracy (absolute, in length units) the examples use and the methods suggest: `1e-9`.
-pub const DEFAULT_ACCURACY: f64 = 1e-9;
-
-/// Smallest accuracy the adaptive methods try for, relative to the curve's size: requests below
-/// `RELATIVE_ACCURACY_FLOOR * size` are raised to it (round-off makes them meaningless).
-pub const RELATIVE_ACCURACY_FLOOR: f64 = 1e-15;
 
 /// A parametric curve `t -> B(t)`, `t in [0, 1]`.
 pub trait ParamCurve: Sized {
@@ -178,7 +172,7 @@ pub trait ParamCurveArclen: ParamCurve {
     /// bisection of the bracket when the step leaves it or the speed vanishes.
     /// A curve of zero length returns `0.0`.
     fn inv_arclen(&self, s: f64, accuracy: f64) -> f64 {
-        let acc = crate::quadrature::sanitize_accuracy(accuracy);
+        let acc = crate::accuracy::sanitize_accuracy(accuracy);
         let total = self.arclen(0.25 * acc);
         crate::quadrature::inv_arclen_with(
             |t| (self.speed(t), 0.0),
@@ -193,7 +187,7 @@ pub trait ParamCurveArclen: ParamCurve {
     /// length to within `accuracy`, found incrementally (each solve starts from the previous
     /// parameter). `n < 2` gives `n` zeros; a curve of zero length gives parameters uniform in `t`.
     fn resample_uniform(&self, n: usize, accuracy: f64) -> Vec<f64> {
-        let acc = crate::quadrature::sanitize_accuracy(accuracy);
+        let acc = crate::accuracy::sanitize_accuracy(accuracy);
         let total = if n < 2 { 0.0 } else { self.arclen(0.25 * acc) };
         crate::quadrature::resample_with(
             |t| (self.speed(t), 0.0),

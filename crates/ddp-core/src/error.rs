@@ -58,6 +58,17 @@ impl Error {
     }
 }
 
+/// A failed [`ddpkit_util::check`] validator: an [`Error::Invalid`] naming the field, e.g.
+/// `dt is invalid: must be finite and > 0, got 0`.
+impl From<ddpkit_util::check::CheckError> for Error {
+    fn from(e: ddpkit_util::check::CheckError) -> Self {
+        Error::Invalid {
+            reason: e.reason(),
+            field: e.field,
+        }
+    }
+}
+
 /// Rejects NaN and infinities in `values`, naming `field` and the flat index.
 pub fn check_finite<'a>(field: &str, values: impl IntoIterator<Item = &'a f64>) -> Result<()> {
     for (index, &value) in values.into_iter().enumerate() {

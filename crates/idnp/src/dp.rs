@@ -1,4 +1,4 @@
-//! Dynamic programming over time-indexed TCP grids (paper 001, eqs. (2)-(4)).
+//! Dynamic programming over time-indexed TCP grids (Richter et al. (2023), eqs. (2)-(4)).
 //!
 //! The low-dimensional problem: the TCP `z in R^2` moves by steps `s = z_{j+1} - z_j` from a
 //! control grid `U` (a square lattice with `|s_i| <= max_step`, the step bounds that keep

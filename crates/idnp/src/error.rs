@@ -48,29 +48,16 @@ impl Error {
 /// `Result` with this crate's [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;
 
-/// Rejects a value unless it is finite.
-pub(crate) fn finite(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(Error::invalid(field, format!("must be finite, got {v}")))
+/// A failed [`ddpkit_util::check`] validator: an [`Error::Invalid`] naming the field, e.g.
+/// `invalid dp.max_step: must be finite and >= 0, got -1`.
+impl From<ddpkit_util::check::CheckError> for Error {
+    fn from(e: ddpkit_util::check::CheckError) -> Self {
+        Error::Invalid {
+            reason: e.reason(),
+            field: e.field,
+        }
     }
 }
 
-/// Rejects a value unless it is finite and > 0.
-pub(crate) fn positive(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(Error::invalid(field, format!("must be finite and > 0, got {v}")))
-    }
-}
-
-/// Rejects a value unless it is finite and >= 0.
-pub(crate) fn nonnegative(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(v)
-    } else {
-        Err(Error::invalid(field, format!("must be finite and >= 0, got {v}")))
-    }
-}
+// The validators the settings use (`?` converts their error).
+pub(crate) use ddpkit_util::check::{finite, nonnegative, positive};

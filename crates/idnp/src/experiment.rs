@@ -1,6 +1,6 @@
-//! The experiment of paper 001, Section V: many initial conditions, each solved by fixed-grid
-//! IDNP (penalty adaptation), adaptive IDNP (Algorithm 1) and the NLP alone from a straight-line
-//! guess, with at most `max_iterations` iterations of the loop.
+//! The experiment of Richter et al. (2023), Section V: many initial conditions, each solved by
+//! fixed-grid IDNP (penalty adaptation), adaptive IDNP (Algorithm 1) and the NLP alone from a
+//! straight-line guess, with at most `max_iterations` iterations of the loop.
 //!
 //! Initial conditions are seeded (`rand_chacha`): TCP positions drawn uniformly in
 //! [`ExperimentConfig::region`] (at least the DP safety distance from every obstacle), each
@@ -468,7 +468,7 @@ impl Summary {
     /// The table as Markdown, beside the paper's numbers.
     pub fn table(&self) -> String {
         let mut s = String::new();
-        s.push_str("| method | solved (ours) | paper 001 |\n|---|---|---|\n");
+        s.push_str("| method | solved (ours) | Richter et al. (2023) |\n|---|---|---|\n");
         s.push_str(&format!(
             "| IDNP, fixed grid + penalty adaptation | {} / {} | 132 / 254 |\n",
             self.solved_fixed, self.cases

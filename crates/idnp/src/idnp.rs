@@ -1,7 +1,7 @@
-//! The iterative loop (paper 001, Algorithm 1 and Fig. 1): DP on the TCP grids gives waypoints;
-//! the inverse mapping turns them into configurations; the NLP follows them with the full model;
-//! where a waypoint cannot be mapped, or the optimised trajectory collides, the grids are
-//! refined (adaptive IDNP, eq. (6)) or the penalties raised (the original IDNP, fixed grid).
+//! The iterative loop (Richter et al. (2023), Algorithm 1 and Fig. 1): DP on the TCP grids gives
+//! waypoints; the inverse mapping turns them into configurations; the NLP follows them with the
+//! full model; where a waypoint cannot be mapped, or the optimised trajectory collides, the grids
+//! are refined (adaptive IDNP, eq. (6)) or the penalties raised (the original IDNP, fixed grid).
 //!
 //! Refinement (eq. (6)): an infeasible point `z` at time `t`, with `t_j <= t < t_{j+1}`, splits
 //! the leaves of `G_j` and of `G_{j+1}` that contain `z` (the time index and its successor, which

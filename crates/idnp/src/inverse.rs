@@ -1,5 +1,5 @@
-//! Inverse space mapping (paper 001, eq. (5)): from a TCP waypoint `z` to a configuration `q`
-//! close to the previous one `q_prev`, with a margin to the obstacles.
+//! Inverse space mapping (Richter et al. (2023), eq. (5)): from a TCP waypoint `z` to a
+//! configuration `q` close to the previous one `q_prev`, with a margin to the obstacles.
 //!
 //! ```text
 //! min_q  |q - q_prev|_W^2 + w_m sum_{b,o} max(0, m - sd_{b,o}(q))^2 + w_l |limit violation|^2

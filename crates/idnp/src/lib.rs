@@ -1,8 +1,8 @@
 //! # idnp
 //!
 //! Iterative dynamic and nonlinear programming (IDNP) with adaptive grid refinement, after
-//! paper 001 ("Collision avoidance using iterative dynamic and nonlinear programming with
-//! adaptive grid refinements"), on a planar floating base with a 2-link arm
+//! Richter et al. (2023) ("Collision avoidance using iterative dynamic and nonlinear programming
+//! with adaptive grid refinements"), on a planar floating base with a 2-link arm
 //! ([`ddp_core::models::ArmBase`], 10 states, 5 controls).
 //!
 //! The feasibility problem: find controls `u_0 .. u_{N-1}` with
@@ -29,7 +29,7 @@
 //! seeded initial conditions); `cargo run --release -p idnp --bin idnp-experiment` prints the
 //! table and draws a figure like Fig. 3 (module `plot`, feature `cli`).
 //!
-//! | paper 001 | here |
+//! | Richter et al. (2023) | here |
 //! |---|---|
 //! | penalty (2) | [`dp::DpSettings::penalty`] |
 //! | DP recursion (4), interpolation `nu_i`, `w_i` | [`dp::Dp::solve`], [`quadtree::QuadGrid::weights`] |

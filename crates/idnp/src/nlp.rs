@@ -1,6 +1,6 @@
-//! The NLP block (HDP of paper 001, Section III): the full 10-state model follows the mapped
-//! waypoints, with collision constraints, solved by our constrained DDP (`safe-cddp`); then a
-//! collision check of the result.
+//! The NLP block (HDP of Richter et al. (2023), Section III): the full 10-state model follows the
+//! mapped waypoints, with collision constraints, solved by our constrained DDP (`safe-cddp`); then
+//! a collision check of the result.
 //!
 //! The waypoints `z_j` enter through their configurations `q_j` (inverse mapping, eq. (5)): knot
 //! `k` of stage `j` (`k = j m + i`, `m` knots per stage, `a = i / m`) tracks
@@ -8,15 +8,15 @@
 //! ```text
 //! q_ref,k = (1 - a) q_j + a q_{j+1},   v_ref,k = (q_{j+1} - q_j) / dt_stage
 //! l_k = 1/2 |q_k - q_ref,k|_Qp^2 + 1/2 |v_k - v_ref,k|_Qv^2 + 1/2 |u_k|_R^2
-//! l_N = 1/2 |q_N - q_T|_Qpf^2 + 1/2 |v_N|_Qvf^2           (zero final velocity, paper 001 V-B)
+//! l_N = 1/2 |q_N - q_T|_Qpf^2 + 1/2 |v_N|_Qvf^2           (zero final velocity, Richter et al. (2023), V-B)
 //! s.t. x_{k+1} = f(x_k, u_k),  |u| <= u_max,  margin - sd_{b,o}(x_k) <= 0  (bodies b, obstacles o)
 //! ```
 //!
 //! The paper's waypoints are path constraints and its NLP has no collision constraints; ours
-//! follows the waypoints in the cost and keeps the collision rows as constraints, as the brief of
-//! issue #7 asks. Each solve first runs box-DDP (`ddp-core`) on the tracking cost alone for a warm
-//! start, then [`safe_cddp::SafeCddpSolver`] with the rows of [`BodyObstacle`]. The fallback
-//! [`NlpSolver::Penalty`] replaces the constraints by a quadratic penalty in `ddp-core`.
+//! follows the waypoints in the cost and keeps the collision rows as constraints, as the project's
+//! brief for this crate asks. Each solve first runs box-DDP (`ddp-core`) on the tracking cost alone
+//! for a warm start, then [`safe_cddp::SafeCddpSolver`] with the rows of [`BodyObstacle`]. The
+//! fallback [`NlpSolver::Penalty`] replaces the constraints by a quadratic penalty in `ddp-core`.
 //!
 //! A result **succeeds** when it is collision-free at every knot and at `collision_substeps - 1`
 //! interpolated configurations between knots, the TCP ends within the goal ball plus

@@ -1,9 +1,10 @@
-//! A PNG like Fig. 3 of paper 001: the obstacles (grey), the goal ball (green), the leaves of the
-//! refined grids (all time indices overlaid: root cells light, split cells darker), the waypoints
-//! of the first iterations (red, orange, blue, purple: iterations 1, 2, 3, 4), and the TCP path
-//! of the final trajectory (black) with the robot drawn at a few knots; crosses mark the points
-//! each iteration found infeasible (waypoints that could not be mapped, colliding TCP positions).
-//! No text, so no font is needed. The figure is drawn to `<path>.tmp.png` and renamed: it is whole or absent.
+//! A PNG like Fig. 3 of Richter et al. (2023): the obstacles (grey), the goal ball (green), the
+//! leaves of the refined grids (all time indices overlaid: root cells light, split cells darker),
+//! the waypoints of the first iterations (red, orange, blue, purple: iterations 1, 2, 3, 4), and
+//! the TCP path of the final trajectory (black) with the robot drawn at a few knots; crosses mark
+//! the points each iteration found infeasible (waypoints that could not be mapped, colliding TCP
+//! positions). No text, so no font is needed. The figure is drawn to a temporary PNG next to `path`
+//! and renamed: it is whole or absent.
 
 use std::path::Path;
 
@@ -14,6 +15,9 @@ use crate::error::{Error, Result};
 use crate::idnp::IterationRecord;
 use crate::quadtree::QuadGrid;
 use crate::scene::Scene;
+
+/// What stops a drawing: the encoder's message, or the file system's error.
+type Failure = Box<dyn std::error::Error + Send + Sync>;
 
 /// Colours of the waypoints of iterations 1, 2, 3, 4.
 pub const ITERATION_COLORS: [(u8, u8, u8); 4] = [(220, 40, 40), (240, 150, 20), (40, 90, 220), (140, 50, 170)];
@@ -46,11 +50,11 @@ pub fn figure(
             ((y1 - p[1]) * px_per_m).round() as i32,
         )
     };
-    let tmp = path.with_extension("tmp.png");
-    {
-        let root = BitMapBackend::new(&tmp, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let draw = |e: std::result::Result<(), DrawingAreaErrorKind<_>>| e.map_err(|e| err(e.to_string()));
+    // Drawn to a temporary PNG next to `path`: drawing errors are `Plot`, the file system's `Io`.
+    let drawn = ddpkit_util::fs::write_atomic_at(path, |tmp: &Path| -> std::result::Result<(), Failure> {
+        let root = BitMapBackend::new(tmp, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| Failure::from(e.to_string()))?;
+        let draw = |e: std::result::Result<(), DrawingAreaErrorKind<_>>| e.map_err(|e| Failure::from(e.to_string()));
         // Obstacles.
         for o in &scene.obstacles {
             let pts: Vec<(i32, i32)> = o.vertices().iter().map(|&v| px(v)).collect();
@@ -123,10 +127,14 @@ pub fn figure(
                 }
             }
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|source| Error::Io {
-        path: path.display().to_string(),
-        source,
+        root.present().map_err(|e| Failure::from(e.to_string()))?;
+        Ok(())
+    });
+    drawn.map_err(|e| match e.downcast::<std::io::Error>() {
+        Ok(source) => Error::Io {
+            path: path.display().to_string(),
+            source: *source,
+        },
+        Err(e) => err(e.to_string()),
     })
 }

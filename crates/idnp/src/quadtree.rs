@@ -1,4 +1,4 @@
-//! Quadtree grids over the TCP domain: one per DP time index (paper 001, Section IV).
+//! Quadtree grids over the TCP domain: one per DP time index (Richter et al. (2023), Section IV).
 //!
 //! A [`QuadGrid`] is a forest of quadtrees, one per root cell of the [`Domain`]. Its leaves
 //! partition the domain; the grid points of the DP are the corners of the leaves (the vertices),

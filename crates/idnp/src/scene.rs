@@ -1,5 +1,5 @@
-//! The planning scene of paper 001, Section V-B, in the plane: a floating base with a 2-link arm
-//! ([`ArmBase`]), convex polygonal obstacles (four rectangles with a narrow passage in
+//! The planning scene of Richter et al. (2023), Section V-B, in the plane: a floating base with a
+//! 2-link arm ([`ArmBase`]), convex polygonal obstacles (four rectangles with a narrow passage in
 //! [`Scene::narrow_passage`]), and a goal ball for the tool centre point (TCP).
 //!
 //! Collision geometry: the base is its rectangle, each link a capsule (segment between its end
@@ -203,10 +203,10 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// The benchmark scene (our planar take on Fig. 3 of paper 001). A wall of two rectangles at
-    /// `x in [4.3, 5.3]` separates the start region from the goal ball (radius 0.4 m at
-    /// `(8.4, 0)`). It leaves a passage 1.0 m wide at `y in [2.5, 3.5]`, between the lines of the
-    /// initial 1.2 m grid, and a corridor below `y = -2.3`. A block in the start region and one
+    /// The benchmark scene (our planar take on Fig. 3 of Richter et al. (2023)). A wall of two
+    /// rectangles at `x in [4.3, 5.3]` separates the start region from the goal ball (radius 0.4 m
+    /// at `(8.4, 0)`). It leaves a passage 1.0 m wide at `y in [2.5, 3.5]`, between the lines of
+    /// the initial 1.2 m grid, and a corridor below `y = -2.3`. A block in the start region and one
     /// on the way from the corridor to the goal complete the four rectangles. Straight lines from
     /// the start region to the goal meet the wall far from both openings. The DP domain is
     /// `[0, 9.6] x [-3.6, 3.6]` (8 x 6 cells of 1.2 m). The robot is [`ArmBase`] with time step

@@ -1,8 +1,9 @@
-//! Moving obstacles (issue #3, item 5): two discs cross the point robot's path to (3, 3); each is
-//! tracked by a constant-velocity Kalman filter (paper 002's F and G) and its predicted position
-//! covariance is added to the robot's in the tightening, so its margin grows along the horizon.
-//! Runs seeded episodes of plain CDDP (no tightening) and Safe-CDDP (beta = 0.99) and prints
-//! collisions and successes, then the first plan's margins of one crossing obstacle.
+//! Moving obstacles: two discs cross the point robot's path to (3, 3); each is
+//! tracked by a constant-velocity Kalman filter (the F and G of Queen Elizabeth's School (2022))
+//! and its predicted position covariance is added to the robot's in the tightening, so its margin
+//! grows along the horizon. Runs seeded episodes of plain CDDP (no tightening) and Safe-CDDP
+//! (beta = 0.99) and prints collisions and successes, then the first plan's margins of one crossing
+//! obstacle.
 //!
 //! ```text
 //! cargo run --release -p safe-cddp --example crossing -- [episodes]

@@ -1,7 +1,7 @@
-//! Constant-velocity Kalman filter for a moving obstacle (paper 002), and its prediction as a
-//! [`MovingCircle`] constraint whose margin grows along the horizon.
+//! Constant-velocity Kalman filter for a moving obstacle, after Queen Elizabeth's School (2022),
+//! and its prediction as a [`MovingCircle`] constraint whose margin grows along the horizon.
 //!
-//! State `a = (px, vx, py, vy)`, one block per axis as in paper 002:
+//! State `a = (px, vx, py, vy)`, one block per axis as in Queen Elizabeth's School (2022):
 //!
 //! ```text
 //! a_{t+1} = F a_t + G w_t,   F = diag(A, A), A = [1 s; 0 1],   G = diag(B, B), B = [s^2/2; s]
@@ -22,6 +22,7 @@
 
 use ddp_core::error::check_finite;
 use ddp_core::{Error, Matrix, Result, Vector};
+use ddpkit_util::check::positive;
 use nalgebra::Matrix2;
 
 use crate::constraints::{CircleForm, MovingCircle};
@@ -34,14 +35,6 @@ pub struct ObstacleTracker {
     r: f64,
     a: Vector<4>,
     p: Matrix<4, 4>,
-}
-
-fn positive(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(Error::invalid(field, format!("must be finite and > 0, got {v}")))
-    }
 }
 
 impl ObstacleTracker {

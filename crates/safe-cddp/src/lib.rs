@@ -25,7 +25,7 @@
 //! | `K` of eq. (19) | [`Gains`], [`SafeCddpSolver::propagation_gains`] | (19) |
 //! | `n1`, `n2` | [`mpc::MpcSettings::iterations`], [`Tightening::update_every`] | Alg. 1 |
 //! | Table I | [`table`], the binary `safe-cddp-table` (feature `cli`) | §IV |
-//! | obstacle tracker `F`, `G` | [`kalman::ObstacleTracker`] | paper 002 |
+//! | obstacle tracker `F`, `G` | [`kalman::ObstacleTracker`] | Queen Elizabeth's School (2022) |
 //!
 //! ```
 //! use std::sync::Arc;

@@ -1,10 +1,10 @@
-//! The experiment of Table I (paper 003, §IV-A/B): three robots reach a goal among obstacles
-//! under additive Gaussian process noise, driven by the shrinking-horizon MPC of Algorithm 1
-//! ([`crate::mpc::Mpc`], `n1 = 10` iterations per step, tightening every `n2 = 5`), 100 seeded
-//! episodes for each `beta` in {0.5, 0.9, 0.95, 0.99}. `beta = 0.5` is plain CDDP (`phi^{-1}(0.5) =
-//! 0`, no margins). The binary `safe-cddp-table` runs it in parallel and writes the table, a JSON
-//! file and the figure; this module holds the scenarios and the metrics so that tests can run a
-//! few episodes.
+//! The experiment of Table I (Alcan and Kyrki (2022), §IV-A/B): three robots reach a goal among
+//! obstacles under additive Gaussian process noise, driven by the shrinking-horizon MPC of
+//! Algorithm 1 ([`crate::mpc::Mpc`], `n1 = 10` iterations per step, tightening every `n2 = 5`), 100
+//! seeded episodes for each `beta` in {0.5, 0.9, 0.95, 0.99}. `beta = 0.5` is plain CDDP
+//! (`phi^{-1}(0.5) = 0`, no margins). The binary `safe-cddp-table` runs it in parallel and writes
+//! the table, a JSON file and the figure; this module holds the scenarios and the metrics so that
+//! tests can run a few episodes.
 //!
 //! | robot | model | N | task |
 //! |---|---|---|---|

@@ -136,14 +136,14 @@ fn main() -> sim2d::Result<()> {
     };
     // DDPEN_MODEL=<weights>: the network of `ddpen` (default: the shipped model).
     if let Some(m) = std::env::var_os("DDPEN_MODEL") {
-        config.ddp.subgoal_model = Some(sim2d::ddpen::intern_path(std::path::Path::new(&m)));
+        config.ddpen.model = Some(m.into());
     }
     if let Some(seed) = seed {
         config.seed = seed;
         config.stall_time = 30.0;
     }
     if let Some(w) = a.get(3) {
-        config.ddp.w_subgoal = w
+        config.ddpen.w_subgoal = w
             .parse()
             .map_err(|_| sim2d::Error::invalid("w_subgoal", format!("not a number: {w:?}")))?;
     }

@@ -193,15 +193,12 @@ pub fn write_figures(dir: &Path, jobs: &[Job], results: &[RunResult]) -> Result<
     Ok(written)
 }
 
-/// Writes `value` as pretty JSON to `path` through a temporary file (whole or absent).
+/// Writes `value` as pretty JSON to `path` (creating its folder) through a temporary file, so
+/// the file is whole or absent ([`ddpkit_util::fs::write_atomic`]).
 pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
     }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".partial");
-    let tmp = PathBuf::from(tmp);
-    let text = serde_json::to_string_pretty(value).map_err(|e| Error::write(path, e))?;
-    std::fs::write(&tmp, text).map_err(|e| Error::write(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::write(path, e))
+    let text = serde_json::to_vec_pretty(value).map_err(|e| Error::write(path, e))?;
+    ddpkit_util::fs::write_atomic(path, text).map_err(|e| Error::write(path, e))
 }

@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 
-use crate::ddpen::intern_path;
 use crate::run::RunConfig;
 
 /// Planner and executor options (each left out keeps [`RunConfig::default`]'s value).
@@ -37,13 +36,13 @@ impl PlannerArgs {
             config.ddp.horizon = n;
         }
         if let Some(m) = &self.model {
-            config.ddp.subgoal_model = Some(intern_path(m));
+            config.ddpen.model = Some(m.clone());
         }
         if let Some(w) = self.w_subgoal {
-            config.ddp.w_subgoal = w;
+            config.ddpen.w_subgoal = w;
         }
         if let Some(k) = self.subgoal_every {
-            config.ddp.subgoal_every = k;
+            config.ddpen.subgoal_every = k;
         }
         if let Some(w) = self.w_contact {
             config.ddp.w_contact = w;
@@ -71,7 +70,21 @@ mod tests {
         let mut c = RunConfig::default();
         cli.planner.apply(&mut c);
         assert_eq!((c.ddp.w_contact, c.governor.enabled, c.ddp.horizon), (0.0, false, 30));
-        assert_eq!(c.ddp.w_subgoal, RunConfig::default().ddp.w_subgoal);
+        assert_eq!(c.ddpen, RunConfig::default().ddpen);
+        let cli = Cli::try_parse_from([
+            "x",
+            "--model",
+            "m.safetensors",
+            "--w-subgoal",
+            "1.5",
+            "--subgoal-every",
+            "3",
+        ])
+        .unwrap();
+        let mut c = RunConfig::default();
+        cli.planner.apply(&mut c);
+        assert_eq!(c.ddpen.model.as_deref(), Some(std::path::Path::new("m.safetensors")));
+        assert_eq!((c.ddpen.w_subgoal, c.ddpen.subgoal_every), (1.5, 3));
         let cli = Cli::try_parse_from(["x", "--w-contact=-1"]).unwrap();
         let mut c = RunConfig::default();
         cli.planner.apply(&mut c);

@@ -20,6 +20,16 @@
 //! [`DdpenPlanner`] asks its source every `subgoal_every` cycles (the cadence of inference) and
 //! keeps the sub-goals in between; their compute time is part of the cycle's set-up time.
 //!
+//! DDPEN's own parameters ([`DdpenParams`], besides the optimiser's
+//! [`DdpParams`](crate::planner::DdpParams); the paper gives none of these numbers):
+//!
+//! | symbol | field | default | why |
+//! |---|---|---|---|
+//! | `w_s` | `w_subgoal` | 2 per sub-goal | with 1, the goal terms towards an exit behind a wall can balance the sub-goals and hold the robot in a pocket |
+//! | | `subgoal_every` | 1 | new sub-goals every planning cycle |
+//! | `v` lower bound | `v_min` | -0.5 m/s | replaces the optimiser's `v_min`: DDPEN may back out of a pocket |
+//! | | `model` | `None` | the shipped weights |
+//!
 //! What goal the sources (and the DDP's goal terms) aim for is ours, not the paper's: the paper's
 //! local goal, where the route crosses the costmap border (§II-E), sits in the pocket of a trap on
 //! the route, or inside or behind its back wall, and sub-goals towards it lead back into the dead
@@ -54,13 +64,59 @@ use std::time::Instant;
 use subgoal_infer::grid::{path_cost, AStar, AStarParams, Costmap, GridGeometry, LETHAL};
 use subgoal_infer::SubgoalModel;
 
-use crate::error::{Error, Result};
+use crate::error::{nonnegative, Error, Result};
 use crate::planner::{pursuit_guess, DdpParams, DdpPlanner, Plan, PlanRequest, Planner};
 use crate::route::dist;
 use ddp_core::Vector;
 
 /// Path steps of the A* oracle's sub-goals (§II-D: 30, 50 and 70).
 pub const ORACLE_STEPS: [usize; 3] = [30, 50, 70];
+
+/// DDPEN's parameters beyond the optimiser's [`DdpParams`] (defaults: the table in the module
+/// docs).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DdpenParams {
+    /// `w_s`, sub-goal distance (eq. 9), per sub-goal.
+    pub w_subgoal: f64,
+    /// Ask for new sub-goals every this many planning cycles (the cadence of inference).
+    pub subgoal_every: usize,
+    /// Lower speed bound of DDPEN's plans (m/s; replaces [`DdpParams::v_min`]). Negative lets the
+    /// robot back out towards sub-goals behind it: with `v >= 0`, standing still is a stationary
+    /// point of the cost in the turn rate, and a turn towards a sub-goal behind takes longer than
+    /// the horizon before it pays.
+    pub v_min: f64,
+    /// The sub-goal model's weights (`None`: the shipped default).
+    pub model: Option<PathBuf>,
+}
+
+impl Default for DdpenParams {
+    fn default() -> Self {
+        Self {
+            w_subgoal: 2.0,
+            subgoal_every: 1,
+            v_min: -0.5,
+            model: None,
+        }
+    }
+}
+
+impl DdpenParams {
+    /// Rejects impossible values, naming the field (`ddpen.<name>`); `v_min` must not exceed the
+    /// optimiser's `v_max`.
+    pub fn validate(&self, ddp: &DdpParams) -> Result<()> {
+        if self.subgoal_every == 0 {
+            return Err(Error::invalid("ddpen.subgoal_every", "must be at least 1"));
+        }
+        nonnegative("ddpen.w_subgoal", self.w_subgoal)?;
+        if !(self.v_min.is_finite() && self.v_min <= ddp.v_max) {
+            return Err(Error::invalid(
+                "ddpen.v_min",
+                format!("must be finite and <= ddp.v_max = {}, got {}", ddp.v_max, self.v_min),
+            ));
+        }
+        Ok(())
+    }
+}
 
 /// World <-> map coordinates of a costmap: map coordinates are metres relative to the map's
 /// centre ([`GridGeometry::center`]), in map axes (`x` along the columns `ix`, `y` along the rows
@@ -637,22 +693,6 @@ impl SubgoalSource for NetworkSubgoals {
     }
 }
 
-/// A `&'static Path` for [`DdpParams::subgoal_model`] (which is `Copy`): each distinct path is
-/// leaked once per process.
-pub fn intern_path(path: &Path) -> &'static Path {
-    static PATHS: OnceLock<Mutex<Vec<&'static Path>>> = OnceLock::new();
-    let mut paths = PATHS
-        .get_or_init(|| Mutex::new(Vec::new()))
-        .lock()
-        .unwrap_or_else(|e| e.into_inner());
-    if let Some(p) = paths.iter().find(|p| **p == path) {
-        return p;
-    }
-    let p: &'static Path = Box::leak(path.to_path_buf().into_boxed_path());
-    paths.push(p);
-    p
-}
-
 /// Loaded models by path.
 type ModelCache = Mutex<Vec<(PathBuf, Arc<SubgoalModel>)>>;
 
@@ -687,6 +727,8 @@ pub struct DdpenPlanner {
     source: Box<dyn SubgoalSource>,
     name: String,
     every: usize,
+    /// `w_s` of each sub-goal term.
+    w_subgoal: f64,
     cycle: usize,
     subgoals: Vec<[f64; 2]>,
     /// The goal of the sub-goal source and of the DDP cost, see [`DdpenPlanner::target`].
@@ -718,18 +760,25 @@ pub struct DdpenPlanner {
 }
 
 impl DdpenPlanner {
-    /// A planner named `name` with `params` (`params.subgoal_every` is the inference cadence)
-    /// and sub-goals from `source`.
-    pub fn new(name: impl Into<String>, params: DdpParams, source: Box<dyn SubgoalSource>) -> Result<Self> {
+    /// A planner named `name` with the optimiser's `params`, DDPEN's `ddpen`
+    /// (`ddpen.subgoal_every` is the inference cadence) and sub-goals from `source`.
+    pub fn new(
+        name: impl Into<String>,
+        params: DdpParams,
+        ddpen: &DdpenParams,
+        source: Box<dyn SubgoalSource>,
+    ) -> Result<Self> {
         params.validate()?;
+        ddpen.validate(&params)?;
         Ok(Self {
             ddp: DdpPlanner::new(DdpParams {
-                v_min: params.subgoal_v_min,
+                v_min: ddpen.v_min,
                 ..params
             })?,
             source,
             name: name.into(),
-            every: params.subgoal_every,
+            every: ddpen.subgoal_every,
+            w_subgoal: ddpen.w_subgoal,
             cycle: 0,
             subgoals: Vec::new(),
             target: None,
@@ -885,7 +934,7 @@ impl DdpenPlanner {
         while self.subgoals.len() < 3 {
             self.subgoals.push(end);
         }
-        self.ddp.set_subgoals(&self.subgoals)?;
+        self.ddp.set_subgoals(&self.subgoals, self.w_subgoal)?;
         // Reversing only: the way back is free, turning round in a slot may not be.
         self.ddp.restrict_speed(Some((f64::NEG_INFINITY, 0.0)));
         pursuit_guess(self.ddp.params(), request.state, path, 0.5, true, &mut self.guess);
@@ -905,15 +954,15 @@ impl DdpenPlanner {
     }
 
     /// `ddpen-oracle`: A* sub-goals.
-    pub fn oracle(params: DdpParams) -> Result<Self> {
-        Self::new("ddpen-oracle", params, Box::new(AstarSubgoals::default()))
+    pub fn oracle(params: DdpParams, ddpen: &DdpenParams) -> Result<Self> {
+        Self::new("ddpen-oracle", params, ddpen, Box::new(AstarSubgoals::default()))
     }
 
-    /// `ddpen`: the network's sub-goals, with the model at `params.subgoal_model` or the
-    /// shipped default.
-    pub fn network(params: DdpParams) -> Result<Self> {
-        let model = load_model(params.subgoal_model)?;
-        Self::new("ddpen", params, Box::new(NetworkSubgoals::new(model)))
+    /// `ddpen`: the network's sub-goals, with the model at `ddpen.model` or the shipped default
+    /// (loaded once per process, see [`load_model`]).
+    pub fn network(params: DdpParams, ddpen: &DdpenParams) -> Result<Self> {
+        let model = load_model(ddpen.model.as_deref())?;
+        Self::new("ddpen", params, ddpen, Box::new(NetworkSubgoals::new(model)))
     }
 
     /// The sub-goals in force (world frame).
@@ -993,7 +1042,7 @@ impl Planner for DdpenPlanner {
                 self.scratch = stamped;
             }
             found?;
-            self.ddp.set_subgoals(&self.subgoals)?;
+            self.ddp.set_subgoals(&self.subgoals, self.w_subgoal)?;
             infer = t.elapsed().as_secs_f64();
         }
         self.cycle += 1;

@@ -19,7 +19,7 @@
 
 use subgoal_infer::grid::DistanceField;
 
-use crate::error::{check_nonnegative, check_positive, Result};
+use crate::error::{nonnegative, positive, Result};
 use crate::world::RobotParams;
 
 /// Settings of the speed governor (see the module docs).
@@ -47,8 +47,9 @@ impl Default for GovernorParams {
 impl GovernorParams {
     /// Rejects impossible values, naming the field (`governor.<name>`).
     pub fn validate(&self) -> Result<()> {
-        check_positive("governor.decel", self.decel)?;
-        check_nonnegative("governor.stand_off", self.stand_off)
+        positive("governor.decel", self.decel)?;
+        nonnegative("governor.stand_off", self.stand_off)?;
+        Ok(())
     }
 }
 

@@ -14,13 +14,14 @@
 //! | [`perception`] | lidar -> costmap -> distance field, inflation |
 //! | [`planner`] | DDP (eqs. 3-7, 4 epochs per cycle, shifted warm start) and DDP with an A* guess |
 //! | [`ddpen`] | DDPEN: sub-goal sources (A* oracle, network), the sub-goal cost (eqs. 8-9), map frame |
+//! | [`registry`] | every planner by name ([`PlannerKind`]) |
 //! | [`run`] | the loop, [`RunConfig`], [`RunResult`], observers |
 //! | [`log`] | MCAP logs with Foxglove schemas |
 //! | [`plot`] | PNG top views like the paper's Fig. 5 |
 //! | [`table`] | the paper's Table I |
 //! | [`traps`] | seeded random trap maps (U, L, cube clusters, cylinder cups) for `trap-bench` |
 //! | [`batch`] | parallel runs with progress bar, logs and figures (the binaries) |
-//! | [`turtlebot`] | the Safe-CDDP Turtlebot experiment (paper 003, §IV-C, Fig. 5): CDDP vs Safe-CDDP |
+//! | [`turtlebot`] | the Safe-CDDP Turtlebot experiment (Alcan and Kyrki (2022), §IV-C, Fig. 5): CDDP vs Safe-CDDP |
 //!
 //! ```no_run
 //! let scenario = sim2d::Scenario::from_file("scenarios/cylinders.toml")?;
@@ -38,6 +39,7 @@ pub mod log;
 pub mod perception;
 pub mod planner;
 pub mod plot;
+pub mod registry;
 pub mod route;
 pub mod run;
 pub mod scenario;
@@ -46,8 +48,10 @@ pub mod traps;
 pub mod turtlebot;
 pub mod world;
 
+pub use ddpen::DdpenParams;
 pub use error::{Error, Result};
-pub use planner::{DdpParams, Planner, PlannerKind};
+pub use planner::{DdpParams, Planner};
+pub use registry::PlannerKind;
 pub use route::Route;
 pub use run::{run_scenario, run_scenario_with, Direction, Observer, Outcome, RunConfig, RunResult};
 pub use scenario::{Obstacle, Scenario};

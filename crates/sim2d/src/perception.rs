@@ -30,7 +30,7 @@ use std::sync::Arc;
 
 use subgoal_infer::grid::{Costmap, DistanceField, GridGeometry, Inflation, FREE, LETHAL};
 
-use crate::error::{check_nonnegative, check_positive, Error, Result};
+use crate::error::{nonnegative, positive, Error, Result};
 use crate::world::Scan;
 
 /// Costmap parameters (defaults: DDPEN's 200 x 200 cells of 5 cm; inflation for the 0.6 x 0.8 m
@@ -87,13 +87,13 @@ impl PerceptionParams {
                 format!("must be in 8..=4096, got {}", self.cells),
             ));
         }
-        check_positive("perception.resolution", self.resolution)?;
+        positive("perception.resolution", self.resolution)?;
         if self.obstacle_threshold == 0 {
             return Err(Error::invalid("perception.obstacle_threshold", "must be at least 1"));
         }
-        check_nonnegative("perception.inscribed_radius", self.inscribed_radius)?;
-        check_nonnegative("perception.shadow_depth", self.shadow_depth)?;
-        check_nonnegative("perception.cost_scaling", self.cost_scaling)?;
+        nonnegative("perception.inscribed_radius", self.inscribed_radius)?;
+        nonnegative("perception.shadow_depth", self.shadow_depth)?;
+        nonnegative("perception.cost_scaling", self.cost_scaling)?;
         if self.inflation_radius < self.inscribed_radius {
             return Err(Error::invalid(
                 "perception.inflation_radius",

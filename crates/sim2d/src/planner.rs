@@ -12,7 +12,7 @@
 //! optimisation epochs per cycle (one DDP iteration each: derivatives, backward pass, line
 //! search). Each cycle warm-starts from the previous solution shifted by the control steps
 //! executed since, the last control repeated (Fig. 6). Optional sub-goal terms
-//! `w_s sqrt(|p - x_s|^2 + eps^2)` (eqs. 8-9) are there for DDPEN.
+//! `w_s sqrt(|p - x_s|^2 + eps^2)` (eqs. 8-9, [`DdpPlanner::set_subgoals`]) are there for DDPEN.
 //!
 //! Defaults ([`DdpParams::default`]; the paper gives none of these numbers but the limits):
 //!
@@ -36,12 +36,9 @@
 //! [`AstarDdpPlanner`] is the same optimiser whose initial guess each cycle is a pure-pursuit
 //! rollout along the A* path from the robot to the local goal on the inflated costmap.
 //!
-//! DDPEN (`ddpen`, `ddpen-oracle`) is [`crate::ddpen::DdpenPlanner`]: this optimiser with the
-//! sub-goal terms, its sub-goals from the network or the A* oracle. Its own fields here:
-//! `w_subgoal` (2 per sub-goal: with 1, the goal terms towards an exit behind a wall can balance
-//! the sub-goals and hold the robot in a pocket), `subgoal_every` (1: new sub-goals every cycle),
-//! `subgoal_v_min` (-0.5 m/s: DDPEN may back out of a pocket), `subgoal_model` (`None`: the
-//! shipped weights).
+//! DDPEN (`ddpen`, `ddpen-oracle`, in [`crate::ddpen`]) builds on this optimiser with the
+//! sub-goal terms and its own parameters; [`crate::registry`] finds every planner by name. This
+//! module knows nothing of either.
 
 use ddp_core::dims::{U2, U3};
 use std::sync::Arc;
@@ -53,7 +50,7 @@ use ddp_core::{ControlBounds, Dynamics, Method, Problem, Settings, Solver, Statu
 use subgoal_infer::grid::{nearest_free, AStar, AStarParams};
 use subgoal_infer::DistanceFieldHinge;
 
-use crate::error::{check_nonnegative, check_positive, Error, Result};
+use crate::error::{nonnegative, positive, Error, Result};
 use crate::perception::Perception;
 
 /// The planner's optimisation problem (defaults: the table in the module docs).
@@ -81,18 +78,6 @@ pub struct DdpParams {
     pub contact_margin: f64,
     /// `eps` of the smooth distances (m).
     pub eps: f64,
-    /// `w_s`, sub-goal distance (eq. 9; DDPEN only), per sub-goal.
-    pub w_subgoal: f64,
-    /// DDPEN: ask for new sub-goals every this many planning cycles (the cadence of inference).
-    pub subgoal_every: usize,
-    /// DDPEN: lower speed bound of DDPEN's plans (m/s; replaces `v_min`). Negative lets the robot
-    /// back out towards sub-goals behind it: with `v >= 0`, standing still is a stationary point
-    /// of the cost in the turn rate, and a turn towards a sub-goal behind takes longer than the
-    /// horizon before it pays.
-    pub subgoal_v_min: f64,
-    /// DDPEN: the sub-goal model's weights (`None`: the shipped default; see
-    /// [`crate::ddpen::intern_path`] to make a `&'static Path`).
-    pub subgoal_model: Option<&'static std::path::Path>,
     /// Lower speed bound of the plan (m/s; negative allows reversing).
     pub v_min: f64,
     /// Upper speed bound (m/s).
@@ -117,10 +102,6 @@ impl Default for DdpParams {
             w_contact: 1000.0,
             contact_margin: 0.65,
             eps: 0.05,
-            w_subgoal: 2.0,
-            subgoal_every: 1,
-            subgoal_v_min: -0.5,
-            subgoal_model: None,
             v_min: 0.0,
             v_max: 1.5,
             w_max: 0.5,
@@ -138,11 +119,8 @@ impl DdpParams {
         if self.epochs == 0 {
             return Err(Error::invalid("ddp.epochs", "must be at least 1"));
         }
-        if self.subgoal_every == 0 {
-            return Err(Error::invalid("ddp.subgoal_every", "must be at least 1"));
-        }
-        check_positive("ddp.dt", self.dt)?;
-        check_positive("ddp.eps", self.eps)?;
+        positive("ddp.dt", self.dt)?;
+        positive("ddp.eps", self.eps)?;
         for (n, v) in [
             ("w_control", self.w_control),
             ("w_goal", self.w_goal),
@@ -151,19 +129,9 @@ impl DdpParams {
             ("margin", self.margin),
             ("w_contact", self.w_contact),
             ("contact_margin", self.contact_margin),
-            ("w_subgoal", self.w_subgoal),
             ("w_max", self.w_max),
         ] {
-            check_nonnegative(&format!("ddp.{n}"), v)?;
-        }
-        if !(self.subgoal_v_min.is_finite() && self.subgoal_v_min <= self.v_max) {
-            return Err(Error::invalid(
-                "ddp.subgoal_v_min",
-                format!(
-                    "must be finite and <= ddp.v_max = {}, got {}",
-                    self.v_max, self.subgoal_v_min
-                ),
-            ));
+            nonnegative(&format!("ddp.{n}"), v)?;
         }
         if !(self.v_min.is_finite() && self.v_max.is_finite() && self.v_min <= self.v_max) {
             return Err(Error::invalid(
@@ -226,70 +194,6 @@ pub trait Planner: Send {
     fn plan(&mut self, request: &PlanRequest<'_>) -> Result<&Plan>;
 }
 
-/// The planners this crate provides, by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum PlannerKind {
-    /// Vanilla DDP, warm-started from the shifted previous trajectory.
-    Ddp,
-    /// DDP with an A* initial guess every cycle.
-    DdpAstar,
-    /// DDPEN: DDP with the sub-goal cost (eqs. 8-9), sub-goals from the network.
-    Ddpen,
-    /// DDPEN with oracle sub-goals: path steps 30, 50, 70 of A* on the live costmap.
-    DdpenOracle,
-}
-
-impl PlannerKind {
-    /// All kinds.
-    pub const ALL: [PlannerKind; 4] = [
-        PlannerKind::Ddp,
-        PlannerKind::DdpAstar,
-        PlannerKind::Ddpen,
-        PlannerKind::DdpenOracle,
-    ];
-
-    /// The command-line name.
-    pub fn name(&self) -> &'static str {
-        match self {
-            PlannerKind::Ddp => "ddp",
-            PlannerKind::DdpAstar => "ddp-astar",
-            PlannerKind::Ddpen => "ddpen",
-            PlannerKind::DdpenOracle => "ddpen-oracle",
-        }
-    }
-
-    /// Parses a command-line name; the error lists the known names.
-    pub fn parse(name: &str) -> Result<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == name).ok_or_else(|| {
-            Error::invalid(
-                "planner",
-                format!(
-                    "unknown planner {name:?}; known: {}",
-                    Self::ALL.map(|k| k.name()).join(", ")
-                ),
-            )
-        })
-    }
-
-    /// Builds the planner (`ddpen` loads its model once per process, see
-    /// [`crate::ddpen::load_model`]).
-    pub fn build(&self, params: &DdpParams) -> Result<Box<dyn Planner>> {
-        Ok(match self {
-            PlannerKind::Ddp => Box::new(DdpPlanner::new(*params)?),
-            PlannerKind::DdpAstar => Box::new(AstarDdpPlanner::new(*params)?),
-            PlannerKind::Ddpen => Box::new(crate::ddpen::DdpenPlanner::network(*params)?),
-            PlannerKind::DdpenOracle => Box::new(crate::ddpen::DdpenPlanner::oracle(*params)?),
-        })
-    }
-}
-
-impl std::fmt::Display for PlannerKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
 /// Vanilla DDP in the loop (see the module docs). The solver workspace is allocated once.
 pub struct DdpPlanner {
     params: DdpParams,
@@ -298,6 +202,8 @@ pub struct DdpPlanner {
     solver: Solver<U3, U2>,
     settings: Settings,
     subgoals: Vec<[f64; 2]>,
+    /// `w_s` of each sub-goal term.
+    w_subgoal: f64,
     started: bool,
     plan: Plan,
 }
@@ -331,6 +237,7 @@ impl DdpPlanner {
             solver,
             settings,
             subgoals: Vec::new(),
+            w_subgoal: 0.0,
             started: false,
             plan: Plan {
                 states: Vec::with_capacity(params.horizon + 1),
@@ -361,12 +268,13 @@ impl DdpPlanner {
         &mut self.plan
     }
 
-    /// Sub-goals `x_s` for the next plans (eqs. 8-9), each weighted by `w_subgoal`; empty for
+    /// Sub-goals `x_s` for the next plans (eqs. 8-9), each weighted by `w_s = weight`; empty for
     /// vanilla DDP.
-    pub fn set_subgoals(&mut self, subgoals: &[[f64; 2]]) -> Result<()> {
+    pub fn set_subgoals(&mut self, subgoals: &[[f64; 2]], weight: f64) -> Result<()> {
         for (i, s) in subgoals.iter().enumerate() {
-            crate::error::check_finite2(&format!("subgoals[{i}]"), *s)?;
+            crate::error::finite_each(&format!("subgoals[{i}]"), *s)?;
         }
+        self.w_subgoal = nonnegative("w_subgoal", weight)?;
         self.subgoals.clear();
         self.subgoals.extend_from_slice(subgoals);
         Ok(())
@@ -409,7 +317,7 @@ impl DdpPlanner {
         }
         for s in &self.subgoals {
             running.push(
-                p.w_subgoal,
+                self.w_subgoal,
                 Arc::new(StateOnly(SmoothDistance::<3>::sub_goal(*s, [0, 1], p.eps, 1.0)?)),
             )?;
         }
@@ -619,20 +527,6 @@ impl Planner for AstarDdpPlanner {
 mod tests {
     use super::*;
     use crate::perception::PerceptionParams;
-    use crate::world::Scan;
-
-    fn perception_with_wall() -> Perception {
-        let mut p = Perception::new(PerceptionParams::default()).unwrap();
-        // A wall across y = 0..1 at x = 3 (lidar returns).
-        let hits: Vec<[f64; 2]> = (0..20).map(|k| [3.0, 0.05 * k as f64 + 0.5]).collect();
-        p.update(&Scan {
-            pose: [0.0, 0.0, 0.0],
-            ranges: vec![],
-            max_range: 8.0,
-            hits,
-        });
-        p
-    }
 
     #[test]
     fn ddp_moves_towards_the_goal_within_limits() {
@@ -663,41 +557,7 @@ mod tests {
     }
 
     #[test]
-    fn planned_trajectory_keeps_away_from_a_seen_wall() {
-        let perception = perception_with_wall();
-        // (`ddpen` follows its network, tested in tests/ddpen.rs.)
-        for kind in [PlannerKind::Ddp, PlannerKind::DdpAstar, PlannerKind::DdpenOracle] {
-            let mut planner = kind.build(&DdpParams::default()).unwrap();
-            let mut plan = Plan::default();
-            for cycle in 0..10 {
-                let req = PlanRequest {
-                    time: 0.0,
-                    state: [0.0, 0.0, 0.0],
-                    goal: [5.0, 0.0],
-                    far_goal: [15.0, 0.0],
-                    perception: &perception,
-                    steps_since_last: usize::from(cycle > 0),
-                };
-                plan = planner.plan(&req).unwrap().clone();
-            }
-            let min_dist = plan
-                .states
-                .iter()
-                .map(|s| perception.field().sample([s[0], s[1]]).0)
-                .fold(f64::INFINITY, f64::min);
-            assert!(min_dist > 0.5, "{kind}: min distance {min_dist}");
-        }
-        // The field is not shared after planning: perception updates stay allocation-free.
-        assert_eq!(Arc::strong_count(perception.field()), 1);
-    }
-
-    #[test]
-    fn names_round_trip_and_unknown_is_an_error() {
-        for k in PlannerKind::ALL {
-            assert_eq!(PlannerKind::parse(k.name()).unwrap(), k);
-        }
-        let e = PlannerKind::parse("rrt").unwrap_err().to_string();
-        assert!(e.contains("planner") && e.contains("ddp-astar"), "{e}");
+    fn bad_parameters_are_named() {
         let e = DdpParams {
             horizon: 0,
             ..DdpParams::default()

@@ -87,13 +87,12 @@ pub fn top_view(path: &Path, scenario: &Scenario, route: &Route, tracks: &[Track
         )
     };
 
-    let stem = path.file_stem().and_then(|x| x.to_str()).unwrap_or("figure");
-    let tmp = path.with_file_name(format!("{stem}.tmp.png"));
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
     }
-    let draw = || -> std::result::Result<(), Box<dyn std::error::Error>> {
-        let root = BitMapBackend::new(&tmp, (w, h)).into_drawing_area();
+    // Drawn to a temporary PNG next to `path` and renamed: the figure is whole or absent.
+    let draw = |tmp: &Path| -> std::result::Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::new(tmp, (w, h)).into_drawing_area();
         root.fill(&WHITE)?;
         // Route and route points.
         let route_px: Vec<(i32, i32)> = route.points().iter().map(|p| px(*p)).collect();
@@ -148,9 +147,5 @@ pub fn top_view(path: &Path, scenario: &Scenario, route: &Route, tracks: &[Track
         root.present()?;
         Ok(())
     };
-    if let Err(e) = draw() {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::write(path, e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| Error::write(path, e))
+    ddpkit_util::fs::write_atomic_at(path, draw).map_err(|e| Error::write(path, e))
 }

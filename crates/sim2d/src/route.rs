@@ -19,7 +19,7 @@
 //! # Ok::<(), sim2d::Error>(())
 //! ```
 
-use crate::error::{check_finite2, Error, Result};
+use crate::error::{finite_each, Error, Result};
 
 /// A polyline route (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
@@ -41,7 +41,7 @@ impl Route {
         let mut cum = Vec::with_capacity(points.len());
         cum.push(0.0);
         for (i, p) in points.iter().enumerate() {
-            check_finite2(&format!("route.points[{i}]"), *p)?;
+            finite_each(&format!("route.points[{i}]"), *p)?;
             if i > 0 {
                 let d = dist(points[i - 1], *p);
                 if d < 1e-6 {

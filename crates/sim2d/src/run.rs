@@ -12,11 +12,13 @@
 
 use std::time::Instant;
 
-use crate::error::{check_positive, Error, Result};
-use crate::governor::{govern, GovernorParams};
+use crate::ddpen::DdpenParams;
+use crate::error::{positive, Error, Result};
+use crate::governor::GovernorParams;
 use crate::perception::{Perception, PerceptionParams};
-use crate::planner::{DdpParams, Plan, PlanRequest, PlannerKind, FAR_AHEAD};
-use crate::route::{dist, Route};
+use crate::planner::{DdpParams, Plan, PlanRequest, FAR_AHEAD};
+use crate::registry::PlannerKind;
+use crate::route::Route;
 use crate::scenario::Scenario;
 use crate::world::{LidarParams, RobotParams, Scan, World};
 
@@ -69,6 +71,9 @@ pub struct RunConfig {
     pub perception: PerceptionParams,
     /// The planner's problem.
     pub ddp: DdpParams,
+    /// DDPEN's parameters (sub-goal weight and cadence, speed bound, model), used by `ddpen` and
+    /// `ddpen-oracle`.
+    pub ddpen: DdpenParams,
     /// The executor's speed governor ([`crate::governor`]).
     pub governor: GovernorParams,
     /// The run ends as completed within this distance of the route's end (m).
@@ -87,7 +92,7 @@ pub struct RunConfig {
 impl Default for RunConfig {
     fn default() -> Self {
         Self {
-            planner: PlannerKind::Ddp,
+            planner: PlannerKind::DDP,
             direction: Direction::Forward,
             seed: 0,
             control_dt: 0.1,
@@ -97,6 +102,7 @@ impl Default for RunConfig {
             lidar: LidarParams::default(),
             perception: PerceptionParams::default(),
             ddp: DdpParams::default(),
+            ddpen: DdpenParams::default(),
             governor: GovernorParams::default(),
             goal_tolerance: 1.0,
             stall_time: 30.0,
@@ -110,8 +116,8 @@ impl Default for RunConfig {
 impl RunConfig {
     /// Rejects impossible values, naming the field.
     pub fn validate(&self) -> Result<()> {
-        check_positive("control_dt", self.control_dt)?;
-        check_positive("physics_dt", self.physics_dt)?;
+        positive("control_dt", self.control_dt)?;
+        positive("physics_dt", self.physics_dt)?;
         if self.physics_dt > self.control_dt {
             return Err(Error::invalid("physics_dt", "must be <= control_dt"));
         }
@@ -122,6 +128,7 @@ impl RunConfig {
         self.lidar.validate()?;
         self.perception.validate()?;
         self.ddp.validate()?;
+        self.ddpen.validate(&self.ddp)?;
         self.governor.validate()?;
         if (self.ddp.dt - self.control_dt).abs() > 1e-12 {
             return Err(Error::invalid(
@@ -129,10 +136,11 @@ impl RunConfig {
                 format!("must equal control_dt = {} (got {})", self.control_dt, self.ddp.dt),
             ));
         }
-        check_positive("goal_tolerance", self.goal_tolerance)?;
-        check_positive("stall_time", self.stall_time)?;
-        check_positive("stall_distance", self.stall_distance)?;
-        check_positive("max_time", self.max_time)
+        positive("goal_tolerance", self.goal_tolerance)?;
+        positive("stall_time", self.stall_time)?;
+        positive("stall_distance", self.stall_distance)?;
+        positive("max_time", self.max_time)?;
+        Ok(())
     }
 }
 
@@ -326,6 +334,12 @@ pub fn run_scenario(scenario: &Scenario, config: &RunConfig) -> Result<RunResult
 }
 
 /// Runs `scenario` with `config`, calling the observers along the way.
+///
+/// Each control step is a sequence of stages ([`stages`]), each with its own timer in
+/// [`Timing`] where one exists: `scan` (lidar), `perceive` (costmap), `track` (progress along
+/// the route; ends the run), `plan` (every `plan_every` steps), `govern` (the executor's command),
+/// `observe` (the observers; excluded from [`Timing::total`]) and `step` (physics). What the
+/// stages read and write lives in [`Tracker`], [`Executor`] and [`Records`], passed in.
 pub fn run_scenario_with(
     scenario: &Scenario,
     config: &RunConfig,
@@ -345,7 +359,7 @@ pub fn run_scenario_with(
         config.seed,
     )?;
     let mut perception = Perception::new(config.perception)?;
-    let mut planner = config.planner.build(&config.ddp)?;
+    let mut planner = config.planner.build(&config.ddp, &config.ddpen)?;
     let info = RunInfo {
         scenario,
         route: &route,
@@ -359,131 +373,60 @@ pub fn run_scenario_with(
     let half = config.perception.half_size() - config.perception.resolution;
     let mut timing = Timing::default();
     let mut scan = Scan::default();
-    let mut epoch_ms = Vec::new();
-    let mut cycle_ms = Vec::new();
-    let mut trajectory = Vec::new();
-    let mut goals = Vec::new();
-    let mut plans = Vec::new();
-    let mut controls: Vec<[f64; 2]> = Vec::new();
-    let mut plan_index = 0usize;
-    let mut progress = 0.0f64;
-    let mut best_progress = 0.0f64;
-    let mut stall_mark = (0.0f64, 0.0f64); // (time, progress) of the last real progress
-    let mut distance = 0.0;
-    let mut last_xy = start;
-    let mut step = 0usize;
-    let mut cycles = 0usize;
-    let outcome;
-    let loop_start = Instant::now();
+    let mut tracker = Tracker::new(start);
+    let mut executor = Executor::default();
+    let mut records = Records::default();
     let mut observer_time = 0.0;
-
-    loop {
-        let time = step as f64 * config.control_dt;
-        let scanned = step % scan_every == 0;
+    let mut k = 0usize;
+    let loop_start = Instant::now();
+    let outcome = loop {
+        let time = k as f64 * config.control_dt;
+        let scanned = k % scan_every == 0;
         if scanned {
-            let t = Instant::now();
-            world.scan(&config.lidar, &mut scan);
-            let t1 = Instant::now();
-            perception.update(&scan);
-            timing.lidar += (t1 - t).as_secs_f64();
-            timing.costmap += t1.elapsed().as_secs_f64();
+            stages::scan(&mut world, &config.lidar, &mut scan, &mut timing);
+            stages::perceive(&mut perception, &scan, &mut timing);
         }
         let pose = world.pose();
-        let xy = [pose[0], pose[1]];
-        distance += dist(xy, last_xy);
-        last_xy = xy;
-        progress = route.project(xy, progress, 5.0, 10.0).0;
-        best_progress = best_progress.max(progress);
-        if best_progress >= stall_mark.1 + config.stall_distance {
-            stall_mark = (time, best_progress);
+        if let Some(outcome) = stages::track(&mut tracker, &route, config, time, pose) {
+            break outcome;
         }
-        if dist(xy, route.end()) <= config.goal_tolerance {
-            outcome = Outcome::Completed;
-            break;
-        }
-        if time - stall_mark.0 >= config.stall_time {
-            outcome = Outcome::Stalled;
-            break;
-        }
-        if time >= config.max_time {
-            outcome = Outcome::Timeout;
-            break;
-        }
-        let geometry = perception.costmap().geometry();
-        let goal = route.local_goal(progress, geometry.center(), half);
-
-        let mut plan_now = None;
-        if step % config.plan_every == 0 {
-            let t = Instant::now();
+        let goal = route.local_goal(tracker.progress, perception.costmap().geometry().center(), half);
+        let plan = if k % config.plan_every == 0 {
             let request = PlanRequest {
                 time,
                 state: pose,
                 goal,
-                far_goal: route.point_at((progress + FAR_AHEAD).min(route.length())),
+                far_goal: route.point_at((tracker.progress + FAR_AHEAD).min(route.length())),
                 perception: &perception,
-                steps_since_last: if step == 0 { 0 } else { config.plan_every },
+                steps_since_last: if k == 0 { 0 } else { config.plan_every },
             };
-            let plan = planner.plan(&request)?;
-            timing.planning += t.elapsed().as_secs_f64();
-            cycle_ms.push(1e3 * (plan.setup_seconds + plan.epoch_seconds.iter().sum::<f64>()));
-            epoch_ms.extend(plan.epoch_seconds.iter().map(|s| 1e3 * s));
-            controls.clear();
-            controls.extend_from_slice(&plan.controls);
-            plan_index = 0;
-            if config.keep_plan_every > 0 && cycles % config.keep_plan_every == 0 {
-                plans.push(PlanSnapshot {
-                    time,
-                    positions: plan.states.iter().map(|s| [s[0], s[1]]).collect(),
-                });
-            }
-            cycles += 1;
-            plan_now = Some(plan);
-        }
-        // The executor: the plan's control for this step (the last one past the horizon), its
-        // speed capped by the governor.
-        let planned = controls
-            .get(plan_index)
-            .or(controls.last())
-            .copied()
-            .unwrap_or([0.0, 0.0]);
-        let command = govern(
-            &config.governor,
-            &config.robot,
-            perception.field(),
-            pose,
-            world.body_velocity()[0],
-            config.control_dt,
-            planned,
-        );
-        plan_index += 1;
-        trajectory.push([time, pose[0], pose[1], pose[2], command[0], command[1]]);
-        goals.push(goal);
-
+            let plan = stages::plan(planner.as_mut(), &request, &mut timing)?;
+            executor.load(plan);
+            records.plan(time, plan, config.keep_plan_every);
+            Some(plan)
+        } else {
+            None
+        };
+        let command = stages::govern(config, &perception, &world, pose, executor.next_control());
+        records.step(time, pose, command, goal);
         if !observers.is_empty() {
-            let t = Instant::now();
             let view = CycleView {
                 time,
                 pose,
                 command,
                 goal,
-                progress: best_progress,
+                progress: tracker.best,
                 collisions: world.collisions(),
-                plan: plan_now,
+                plan,
                 scanned,
                 scan: &scan,
                 perception: &perception,
             };
-            for o in observers.iter_mut() {
-                o.on_cycle(&view)?;
-            }
-            observer_time += t.elapsed().as_secs_f64();
+            stages::observe(observers, &view, &mut observer_time)?;
         }
-
-        let t = Instant::now();
-        world.step(command, config.control_dt);
-        timing.physics += t.elapsed().as_secs_f64();
-        step += 1;
-    }
+        stages::step(&mut world, command, config.control_dt, &mut timing);
+        k += 1;
+    };
     timing.total = loop_start.elapsed().as_secs_f64() - observer_time;
     let time_s = world.time();
     let result = RunResult {
@@ -495,8 +438,8 @@ pub fn run_scenario_with(
         completed: outcome == Outcome::Completed,
         time_s,
         route_length_m: route.length(),
-        progress_m: best_progress,
-        distance_m: distance,
+        progress_m: tracker.best,
+        distance_m: tracker.distance,
         collisions: world.collisions(),
         contact_time_s: world.contact_time(),
         final_pose: world.pose(),
@@ -506,15 +449,212 @@ pub fn run_scenario_with(
         } else {
             f64::INFINITY
         },
-        epoch_stats: Stats::of(&epoch_ms),
-        cycle_stats: Stats::of(&cycle_ms),
-        epoch_ms,
-        trajectory,
-        goals,
-        plans,
+        epoch_stats: Stats::of(&records.epoch_ms),
+        cycle_stats: Stats::of(&records.cycle_ms),
+        epoch_ms: records.epoch_ms,
+        trajectory: records.trajectory,
+        goals: records.goals,
+        plans: records.plans,
     };
     for o in observers.iter_mut() {
         o.on_end(&result)?;
     }
     Ok(result)
+}
+
+/// Progress along the route and the end of a run (the `track` stage's state).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tracker {
+    /// Progress along the route (m): the projection of the robot's position, searched near the
+    /// previous one.
+    pub progress: f64,
+    /// Largest progress so far (m).
+    pub best: f64,
+    /// `(time, best)` when `best` last grew by `stall_distance`: the last real progress.
+    pub stall_mark: (f64, f64),
+    /// Path length driven (m).
+    pub distance: f64,
+    /// The position at the previous step.
+    pub last_xy: [f64; 2],
+}
+
+impl Tracker {
+    /// At the start of the route `start`, nothing driven.
+    pub fn new(start: [f64; 2]) -> Self {
+        Self {
+            progress: 0.0,
+            best: 0.0,
+            stall_mark: (0.0, 0.0),
+            distance: 0.0,
+            last_xy: start,
+        }
+    }
+}
+
+/// The executor's plan in force: its controls and the index of the next one to send.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Executor {
+    controls: Vec<[f64; 2]>,
+    next: usize,
+}
+
+impl Executor {
+    /// Takes the controls of a new plan, starting from its first.
+    pub fn load(&mut self, plan: &Plan) {
+        self.controls.clear();
+        self.controls.extend_from_slice(&plan.controls);
+        self.next = 0;
+    }
+
+    /// The plan's control for this step (the last one past the horizon; zero before any plan).
+    pub fn next_control(&mut self) -> [f64; 2] {
+        let u = self
+            .controls
+            .get(self.next)
+            .or(self.controls.last())
+            .copied()
+            .unwrap_or([0.0, 0.0]);
+        self.next += 1;
+        u
+    }
+}
+
+/// What a run keeps for its [`RunResult`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Records {
+    /// Compute time of every optimisation epoch (ms).
+    pub epoch_ms: Vec<f64>,
+    /// Compute time of every planning cycle, set-up and epochs (ms).
+    pub cycle_ms: Vec<f64>,
+    /// `[t, x, y, theta, v_cmd, w_cmd]` per control step.
+    pub trajectory: Vec<[f64; 6]>,
+    /// The local goal per control step.
+    pub goals: Vec<[f64; 2]>,
+    /// One planned trajectory every `keep_plan_every` cycles.
+    pub plans: Vec<PlanSnapshot>,
+    /// Planning cycles so far.
+    pub cycles: usize,
+}
+
+impl Records {
+    /// A new plan at `time`: its timings, and its positions every `keep_every` cycles (0: never).
+    pub fn plan(&mut self, time: f64, plan: &Plan, keep_every: usize) {
+        self.cycle_ms
+            .push(1e3 * (plan.setup_seconds + plan.epoch_seconds.iter().sum::<f64>()));
+        self.epoch_ms.extend(plan.epoch_seconds.iter().map(|s| 1e3 * s));
+        if keep_every > 0 && self.cycles % keep_every == 0 {
+            self.plans.push(PlanSnapshot {
+                time,
+                positions: plan.states.iter().map(|s| [s[0], s[1]]).collect(),
+            });
+        }
+        self.cycles += 1;
+    }
+
+    /// One control step: the pose, the command sent and the local goal.
+    pub fn step(&mut self, time: f64, pose: [f64; 3], command: [f64; 2], goal: [f64; 2]) {
+        self.trajectory
+            .push([time, pose[0], pose[1], pose[2], command[0], command[1]]);
+        self.goals.push(goal);
+    }
+}
+
+/// The stages of a control step, in the order [`run_scenario_with`] calls them.
+pub mod stages {
+    use std::time::Instant;
+
+    use super::{CycleView, Observer, Outcome, RunConfig, Timing, Tracker};
+    use crate::error::Result;
+    use crate::perception::Perception;
+    use crate::planner::{Plan, PlanRequest, Planner};
+    use crate::route::{dist, Route};
+    use crate::world::{LidarParams, Scan, World};
+
+    /// The lidar scan into `scan` (timer: [`Timing::lidar`]).
+    pub fn scan(world: &mut World, lidar: &LidarParams, scan: &mut Scan, timing: &mut Timing) {
+        let t = Instant::now();
+        world.scan(lidar, scan);
+        timing.lidar += t.elapsed().as_secs_f64();
+    }
+
+    /// Costmap, decay, distance transform and inflation from `scan` (timer: [`Timing::costmap`]).
+    pub fn perceive(perception: &mut Perception, scan: &Scan, timing: &mut Timing) {
+        let t = Instant::now();
+        perception.update(scan);
+        timing.costmap += t.elapsed().as_secs_f64();
+    }
+
+    /// Distance driven and progress along the route from the robot's `pose` at `time`; the
+    /// outcome when the run ends here (the end reached, no progress for `stall_time`, or
+    /// `max_time`).
+    pub fn track(
+        tracker: &mut Tracker,
+        route: &Route,
+        config: &RunConfig,
+        time: f64,
+        pose: [f64; 3],
+    ) -> Option<Outcome> {
+        let xy = [pose[0], pose[1]];
+        tracker.distance += dist(xy, tracker.last_xy);
+        tracker.last_xy = xy;
+        tracker.progress = route.project(xy, tracker.progress, 5.0, 10.0).0;
+        tracker.best = tracker.best.max(tracker.progress);
+        if tracker.best >= tracker.stall_mark.1 + config.stall_distance {
+            tracker.stall_mark = (time, tracker.best);
+        }
+        if dist(xy, route.end()) <= config.goal_tolerance {
+            Some(Outcome::Completed)
+        } else if time - tracker.stall_mark.0 >= config.stall_time {
+            Some(Outcome::Stalled)
+        } else if time >= config.max_time {
+            Some(Outcome::Timeout)
+        } else {
+            None
+        }
+    }
+
+    /// A planning cycle (timer: [`Timing::planning`]).
+    pub fn plan<'p>(planner: &'p mut dyn Planner, request: &PlanRequest<'_>, timing: &mut Timing) -> Result<&'p Plan> {
+        let t = Instant::now();
+        let plan = planner.plan(request)?;
+        timing.planning += t.elapsed().as_secs_f64();
+        Ok(plan)
+    }
+
+    /// The command sent this step: the plan's control `planned`, its speed capped by the
+    /// governor ([`crate::governor`]).
+    pub fn govern(
+        config: &RunConfig,
+        perception: &Perception,
+        world: &World,
+        pose: [f64; 3],
+        planned: [f64; 2],
+    ) -> [f64; 2] {
+        crate::governor::govern(
+            &config.governor,
+            &config.robot,
+            perception.field(),
+            pose,
+            world.body_velocity()[0],
+            config.control_dt,
+            planned,
+        )
+    }
+
+    /// The observers (their time is kept in `observer_time`, outside [`Timing`]).
+    pub fn observe(observers: &mut [&mut dyn Observer], view: &CycleView<'_>, observer_time: &mut f64) -> Result<()> {
+        let t = Instant::now();
+        for o in observers.iter_mut() {
+            o.on_cycle(view)?;
+        }
+        *observer_time += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// Physics and the velocity controller for one control period (timer: [`Timing::physics`]).
+    pub fn step(world: &mut World, command: [f64; 2], dt: f64, timing: &mut Timing) {
+        let t = Instant::now();
+        world.step(command, dt);
+        timing.physics += t.elapsed().as_secs_f64();
+    }
 }

@@ -41,7 +41,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use crate::error::{check_finite2, check_positive, Error, Result};
+use crate::error::{finite_each, positive, Error, Result};
 use crate::route::Route;
 
 /// A static obstacle (world frame, metres).
@@ -214,14 +214,14 @@ impl Scenario {
             let f = |name: &str| format!("obstacles[{i}].{name}");
             obstacles.push(match o {
                 ObstacleFile::Cylinder { center, radius } => {
-                    check_finite2(&f("center"), center)?;
-                    check_positive(&f("radius"), radius)?;
+                    finite_each(&f("center"), center)?;
+                    positive(&f("radius"), radius)?;
                     Obstacle::Cylinder { center, radius }
                 }
                 ObstacleFile::Box { center, size, yaw_deg } => {
-                    check_finite2(&f("center"), center)?;
-                    check_positive(&f("size[0]"), size[0])?;
-                    check_positive(&f("size[1]"), size[1])?;
+                    finite_each(&f("center"), center)?;
+                    positive(&f("size[0]"), size[0])?;
+                    positive(&f("size[1]"), size[1])?;
                     if !yaw_deg.is_finite() {
                         return Err(Error::invalid(f("yaw_deg"), format!("must be finite, got {yaw_deg}")));
                     }
@@ -239,7 +239,7 @@ impl Scenario {
                         ));
                     }
                     for (k, p) in points.iter().enumerate() {
-                        check_finite2(&format!("obstacles[{i}].points[{k}]"), *p)?;
+                        finite_each(&format!("obstacles[{i}].points[{k}]"), *p)?;
                     }
                     if signed_area(&points).abs() < 1e-9 {
                         return Err(Error::invalid(f("points"), "the polygon has zero area"));

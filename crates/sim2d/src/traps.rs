@@ -32,7 +32,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::error::{check_positive, Error, Result};
+use crate::error::{positive, Error, Result};
 use crate::route::Route;
 use crate::scenario::{Obstacle, Scenario};
 
@@ -126,8 +126,9 @@ impl TrapParams {
                 ),
             ));
         }
-        check_positive("traps.path_clearance", self.path_clearance)?;
-        check_positive("traps.endpoint_clearance", self.endpoint_clearance)
+        positive("traps.path_clearance", self.path_clearance)?;
+        positive("traps.endpoint_clearance", self.endpoint_clearance)?;
+        Ok(())
     }
 }
 

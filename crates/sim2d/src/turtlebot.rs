@@ -1,4 +1,4 @@
-//! The Safe-CDDP hardware experiment (Alcan and Kyrki, paper 003, §IV-C and Fig. 5) in
+//! The Safe-CDDP hardware experiment (Alcan and Kyrki (2022), §IV-C and Fig. 5) in
 //! simulation: a Turtlebot3-sized differential-drive robot drives from `(0, 0, 0)` to
 //! `(1.4, 0.6, 0)` past two discs, r = 0.15 m at (0.85, 0) and r = 0.11 m at (0.5, 0.85), under
 //! the shrinking-horizon MPC of Algorithm 1 (N = 90 knots of 0.1 s, `n1 = 10` iterations per
@@ -55,7 +55,7 @@ use safe_cddp::constraints::Circle;
 use safe_cddp::{Constraint, IterationOutcome, SafeCddpSolver, Settings, Status, Tightening};
 use serde::Serialize;
 
-use crate::error::{check_nonnegative, check_positive, Error, Result};
+use crate::error::{finite_each, nonnegative, positive, Error, Result};
 use crate::route::Route;
 use crate::run::Stats;
 use crate::scenario::{Obstacle, Scenario};
@@ -260,47 +260,35 @@ impl TurtlebotConfig {
     }
 }
 
-fn check_finite(field: &str, values: &[f64]) -> Result<()> {
-    for (i, v) in values.iter().enumerate() {
-        if !v.is_finite() {
-            return Err(Error::invalid(
-                format!("{field}[{i}]"),
-                format!("must be finite, got {v}"),
-            ));
-        }
-    }
-    Ok(())
-}
-
 impl TurtlebotConfig {
     /// Rejects impossible values, naming the field.
     pub fn validate(&self) -> Result<()> {
-        check_finite("start", &self.start)?;
-        check_finite("goal", &self.goal)?;
+        finite_each("start", &self.start)?;
+        finite_each("goal", &self.goal)?;
         for (i, d) in self.discs.iter().enumerate() {
-            check_finite(&format!("discs[{i}].center"), &d.center)?;
-            check_positive(&format!("discs[{i}].radius"), d.radius)?;
+            finite_each(&format!("discs[{i}].center"), &d.center)?;
+            positive(&format!("discs[{i}].radius"), d.radius)?;
         }
         if self.horizon == 0 {
             return Err(Error::invalid("horizon", "must be at least 1"));
         }
-        check_positive("dt", self.dt)?;
-        check_positive("physics_dt", self.physics_dt)?;
+        positive("dt", self.dt)?;
+        positive("physics_dt", self.physics_dt)?;
         if self.physics_dt > self.dt {
             return Err(Error::invalid("physics_dt", "must be <= dt"));
         }
-        check_positive("track_width", self.track_width)?;
-        check_positive("wheel_speed_max", self.wheel_speed_max)?;
-        check_nonnegative("control_weight", self.control_weight)?;
+        positive("track_width", self.track_width)?;
+        positive("wheel_speed_max", self.wheel_speed_max)?;
+        nonnegative("control_weight", self.control_weight)?;
         for (i, w) in self.terminal_weights.iter().enumerate() {
-            check_nonnegative(&format!("terminal_weights[{i}]"), *w)?;
+            nonnegative(&format!("terminal_weights[{i}]"), *w)?;
         }
         self.robot.validate()?;
-        check_nonnegative("inflation", self.inflation)?;
-        check_nonnegative("sigma_xy", self.sigma_xy)?;
-        check_nonnegative("sigma_theta", self.sigma_theta)?;
+        nonnegative("inflation", self.inflation)?;
+        nonnegative("sigma_xy", self.sigma_xy)?;
+        nonnegative("sigma_theta", self.sigma_theta)?;
         for (i, s) in self.sigma_w.iter().enumerate() {
-            check_nonnegative(&format!("sigma_w[{i}]"), *s)?;
+            nonnegative(&format!("sigma_w[{i}]"), *s)?;
         }
         for (name, v) in [
             ("iterations", self.iterations),
@@ -316,7 +304,8 @@ impl TurtlebotConfig {
         if self.min_horizon > self.horizon {
             return Err(Error::invalid("min_horizon", "must be <= horizon"));
         }
-        check_positive("goal_radius", self.goal_radius)
+        positive("goal_radius", self.goal_radius)?;
+        Ok(())
     }
 
     /// The deterministic optimal-control problem from the start pose (horizon `N`, wheel-speed box).
@@ -371,7 +360,7 @@ impl TurtlebotConfig {
     pub fn scenario(&self) -> Result<Scenario> {
         Ok(Scenario {
             name: "turtlebot".into(),
-            description: "Safe-CDDP hardware experiment (paper 003, §IV-C)".into(),
+            description: "Safe-CDDP hardware experiment (Alcan and Kyrki (2022), §IV-C)".into(),
             route: Route::new(vec![[self.start[0], self.start[1]], [self.goal[0], self.goal[1]]])?,
             obstacles: self
                 .discs
@@ -815,7 +804,7 @@ pub fn experiment_json(e: &Experiment, with_paths: bool) -> serde_json::Value {
     };
     let clear = |rs: &[TurtlebotRun]| rs.iter().map(|r| r.min_clearance).collect::<Vec<_>>();
     serde_json::json!({
-        "experiment": "safe-turtlebot (paper 003, §IV-C, Fig. 5)",
+        "experiment": "safe-turtlebot (Alcan and Kyrki (2022), §IV-C, Fig. 5)",
         "config": e.config,
         "seed": e.seed,
         "beta": e.beta,
@@ -831,21 +820,6 @@ pub fn experiment_json(e: &Experiment, with_paths: bool) -> serde_json::Value {
             "cddp": e.cddp.iter().map(episode).collect::<Vec<_>>(),
             "safe_cddp": e.safe.iter().map(episode).collect::<Vec<_>>(),
         },
-    })
-}
-
-/// Writes `text` to `path` whole or not at all (a `.partial` file, then a rename).
-pub fn write_atomic(path: &std::path::Path, text: &[u8]) -> Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| Error::write(dir, e))?;
-    }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".partial");
-    let tmp = std::path::PathBuf::from(tmp);
-    std::fs::write(&tmp, text).map_err(|e| Error::write(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::write(path, e)
     })
 }
 
@@ -875,25 +849,20 @@ mod figure {
 
     pub(super) fn draw(path: &Path, e: &Experiment) -> Result<()> {
         let (w, h) = (1300u32, 620u32);
-        let stem = path.file_stem().and_then(|x| x.to_str()).unwrap_or("figure");
-        let tmp = path.with_file_name(format!("{stem}.tmp.png"));
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|err| Error::write(dir, err))?;
         }
-        let result = (|| -> std::result::Result<(), Box<dyn std::error::Error>> {
-            let root = BitMapBackend::new(&tmp, (w, h)).into_drawing_area();
+        let draw = |tmp: &Path| -> std::result::Result<(), Box<dyn std::error::Error>> {
+            let root = BitMapBackend::new(tmp, (w, h)).into_drawing_area();
             root.fill(&WHITE)?;
             let (left, right) = root.split_horizontally(620);
             top_view(&left, e)?;
             histograms(&right, e)?;
             root.present()?;
             Ok(())
-        })();
-        if let Err(err) = result {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(Error::write(path, err));
-        }
-        std::fs::rename(&tmp, path).map_err(|err| Error::write(path, err))
+        };
+        // A temporary PNG next to `path`, renamed when complete.
+        ddpkit_util::fs::write_atomic_at(path, draw).map_err(|err| Error::write(path, err))
     }
 
     fn top_view<DB: DrawingBackend>(

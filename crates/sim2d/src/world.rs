@@ -22,7 +22,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rapier2d::prelude::*;
 
-use crate::error::{check_nonnegative, check_positive, Error, Result};
+use crate::error::{nonnegative, positive, Error, Result};
 use crate::scenario::{signed_area, Obstacle, Scenario};
 
 /// Distance (m) below which the robot counts as touching an obstacle.
@@ -91,10 +91,10 @@ impl RobotParams {
             ("angular_traction", self.angular_traction),
             ("noise_tau", self.noise_tau),
         ] {
-            check_positive(&format!("robot.{name}"), v)?;
+            positive(&format!("robot.{name}"), v)?;
         }
-        check_nonnegative("robot.noise_v", self.noise_v)?;
-        check_nonnegative("robot.noise_w", self.noise_w)?;
+        nonnegative("robot.noise_v", self.noise_v)?;
+        nonnegative("robot.noise_w", self.noise_w)?;
         Ok(())
     }
 
@@ -138,9 +138,10 @@ impl LidarParams {
         if self.beams == 0 {
             return Err(Error::invalid("lidar.beams", "must be at least 1"));
         }
-        check_positive("lidar.range", self.range)?;
-        check_positive("lidar.rate_hz", self.rate_hz)?;
-        check_nonnegative("lidar.noise", self.noise)
+        positive("lidar.range", self.range)?;
+        positive("lidar.rate_hz", self.rate_hz)?;
+        nonnegative("lidar.noise", self.noise)?;
+        Ok(())
     }
 }
 
@@ -183,7 +184,7 @@ impl World {
     /// of `dt` seconds and the noise seeded by `seed`.
     pub fn new(scenario: &Scenario, params: RobotParams, start: [f64; 3], dt: f64, seed: u64) -> Result<Self> {
         params.validate()?;
-        check_positive("physics_dt", dt)?;
+        positive("physics_dt", dt)?;
         for (i, v) in start.iter().enumerate() {
             if !v.is_finite() {
                 return Err(Error::invalid(

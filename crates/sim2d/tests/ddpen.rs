@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use ddp_core::costs::{CostSum, SmoothDistance, StateOnly};
 use ddp_core::{Cost, CostDerivatives, TerminalCost, TerminalDerivatives, Vector};
-use sim2d::ddpen::{AstarSubgoals, DdpenPlanner, GoalRepair, MapFrame, SubgoalSource, ORACLE_STEPS};
+use sim2d::ddpen::{AstarSubgoals, DdpenParams, DdpenPlanner, GoalRepair, MapFrame, SubgoalSource, ORACLE_STEPS};
 use sim2d::perception::{Perception, PerceptionParams};
 use sim2d::planner::{DdpParams, PlanRequest, Planner};
 use sim2d::traps::{solvable, trap_map, TrapKind, TrapParams};
@@ -264,8 +264,8 @@ fn ddpen_subgoals_bend_the_plan_round_an_obstacle() {
     };
     let perception = seen(&scenario, [0.0, 0.0, 0.0]);
     let params = DdpParams::default();
-    let mut ddpen = DdpenPlanner::oracle(params).unwrap();
-    let mut ddp = PlannerKind::Ddp.build(&params).unwrap();
+    let mut ddpen = DdpenPlanner::oracle(params, &DdpenParams::default()).unwrap();
+    let mut ddp = PlannerKind::DDP.build(&params, &DdpenParams::default()).unwrap();
     let req = |k: usize| PlanRequest {
         time: 0.0,
         state: [0.0, 0.0, 0.0],
@@ -305,7 +305,7 @@ fn ddpen_oracle_escapes_a_u_trap_where_ddp_stalls() {
     let ddpen = run_scenario(
         &scenario,
         &RunConfig {
-            planner: PlannerKind::DdpenOracle,
+            planner: PlannerKind::DDPEN_ORACLE,
             ..config
         },
     )
@@ -345,19 +345,25 @@ fn bad_input_names_the_field() {
     assert!(e.starts_with("planner") && e.contains("ddpen-oracle"), "{e}");
     let e = TrapKind::parse("z").unwrap_err().to_string();
     assert!(e.starts_with("types"), "{e}");
-    let bad = DdpParams {
+    let bad = DdpenParams {
         subgoal_every: 0,
-        ..DdpParams::default()
+        ..DdpenParams::default()
     };
-    let e = PlannerKind::DdpenOracle.build(&bad).err().unwrap().to_string();
-    assert!(e.starts_with("ddp.subgoal_every"), "{e}");
-    let missing = DdpParams {
-        subgoal_model: Some(sim2d::ddpen::intern_path(std::path::Path::new(
-            "no/such/model.safetensors",
-        ))),
-        ..DdpParams::default()
+    let e = PlannerKind::DDPEN_ORACLE
+        .build(&DdpParams::default(), &bad)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.starts_with("ddpen.subgoal_every"), "{e}");
+    let missing = DdpenParams {
+        model: Some("no/such/model.safetensors".into()),
+        ..DdpenParams::default()
     };
-    let e = PlannerKind::Ddpen.build(&missing).err().unwrap().to_string();
+    let e = PlannerKind::DDPEN
+        .build(&DdpParams::default(), &missing)
+        .err()
+        .unwrap()
+        .to_string();
     assert!(e.starts_with("model") && e.contains("no/such/model.safetensors"), "{e}");
     let e = trap_map(
         TrapKind::L,
@@ -415,7 +421,7 @@ fn a_stuck_ddpen_backs_out_along_its_trail_and_keeps_out_of_the_spot() {
         probes: vec![stuck_at, [stuck_at[0], KEEPOUT_RADIUS + 0.15]],
         seen: seen.clone(),
     };
-    let mut planner = DdpenPlanner::new("t", DdpParams::default(), Box::new(source)).unwrap();
+    let mut planner = DdpenPlanner::new("t", DdpParams::default(), &DdpenParams::default(), Box::new(source)).unwrap();
     let perception = Perception::new(PerceptionParams::default()).unwrap();
     let request = |time: f64, x: f64| PlanRequest {
         time,
@@ -530,7 +536,13 @@ impl SubgoalSource for Flipping {
 #[test]
 fn ddpen_keeps_the_better_of_flipping_subgoal_proposals() {
     let perception = Perception::new(PerceptionParams::default()).unwrap();
-    let mut planner = DdpenPlanner::new("t", DdpParams::default(), Box::new(Flipping(0))).unwrap();
+    let mut planner = DdpenPlanner::new(
+        "t",
+        DdpParams::default(),
+        &DdpenParams::default(),
+        Box::new(Flipping(0)),
+    )
+    .unwrap();
     let request = PlanRequest {
         time: 0.0,
         state: [0.0, 0.0, 0.0],

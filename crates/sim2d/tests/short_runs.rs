@@ -90,7 +90,7 @@ fn mcap_log_is_whole_and_png_is_written() {
     let dir = std::env::temp_dir().join(format!("sim2d-test-{}", std::process::id()));
     let s = Arc::new(scenario(vec![cube([9.0, 1.0])]));
     let config = RunConfig {
-        planner: PlannerKind::DdpAstar,
+        planner: PlannerKind::DDP_ASTAR,
         max_time: 4.0,
         ..RunConfig::default()
     };

@@ -1,5 +1,5 @@
-//! The Safe-CDDP Turtlebot experiment (paper 003, §IV-C): geometry of the clearance, the
-//! constraint inflation, determinism per seed, and Safe-CDDP against CDDP over a few episodes.
+//! The Safe-CDDP Turtlebot experiment (Alcan and Kyrki (2022), §IV-C): geometry of the clearance,
+//! the constraint inflation, determinism per seed, and Safe-CDDP against CDDP over a few episodes.
 
 use safe_cddp::Constraint;
 use sim2d::turtlebot::{

@@ -36,30 +36,14 @@ impl Error {
     }
 }
 
-pub(crate) fn positive(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(Error::invalid(field, format!("must be finite and > 0, got {v}")))
+/// A failed [`ddpkit_util::check`] validator: an [`Error::Invalid`] naming the field, e.g.
+/// `resolution is invalid: must be finite and > 0, got 0`.
+impl From<ddpkit_util::check::CheckError> for Error {
+    fn from(e: ddpkit_util::check::CheckError) -> Self {
+        let reason = e.reason();
+        Error::invalid(e.field, reason)
     }
 }
 
-pub(crate) fn nonnegative(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(v)
-    } else {
-        Err(Error::invalid(field, format!("must be finite and >= 0, got {v}")))
-    }
-}
-
-pub(crate) fn finite2(field: &str, v: [f64; 2]) -> Result<[f64; 2]> {
-    for (i, x) in v.iter().enumerate() {
-        if !x.is_finite() {
-            return Err(Error::invalid(
-                format!("{field}[{i}]"),
-                format!("must be finite, got {x}"),
-            ));
-        }
-    }
-    Ok(v)
-}
+// The validators the grid tools and the dataset use (`?` converts their error).
+pub(crate) use ddpkit_util::check::{finite_each, nonnegative, positive};

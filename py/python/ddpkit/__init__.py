@@ -19,22 +19,23 @@ Every error is a :class:`DdpError` (``ShapeError``, ``NotFiniteError`` and ``Inv
 are also ``ValueError``\\ s) whose ``field`` attribute names the offending argument. Solves
 release the GIL.
 
-Safe-CDDP (paper 003): :class:`SafeCddpSolver` solves problems with constraints
+Safe-CDDP of Alcan and Kyrki (2022): :class:`SafeCddpSolver` solves problems with constraints
 (:class:`Circle`, :class:`ConvexPolygon`, :class:`Cylinder`, :class:`StateBox`,
 :class:`ControlBox`), optionally tightened as chance constraints (:class:`Tightening`), and
 :class:`Mpc` runs it as the shrinking-horizon MPC of its Algorithm 1 under seeded noise.
 
-:mod:`ddpkit.bezier` has the Bézier toolkit of paper 002 (curves, splines through waypoints,
-motion profiles, trajectories as DDP references); :mod:`ddpkit.dqn` the DQN that shapes splines
-(needs torch, imported only there) and ``python -m ddpkit.train`` its training command.
-:mod:`ddpkit.idnp` runs IDNP with adaptive grid refinement (paper 001): DP on quadtree grids of
-the tool-centre point, inverse mapping, constrained DDP with collision constraints.
+:mod:`ddpkit.bezier` has the Bézier toolkit of Queen Elizabeth's School (2022) (curves, splines
+through waypoints, motion profiles, trajectories as DDP references); :mod:`ddpkit.dqn` the DQN that
+shapes splines (needs torch, imported only there) and ``python -m ddpkit.train`` its training
+command. :mod:`ddpkit.idnp` runs IDNP with adaptive grid refinement after Richter et al. (2023): DP
+on quadtree grids of the tool-centre point, inverse mapping, constrained DDP with collision
+constraints.
 
 :mod:`ddpkit.subgoal` has the DDPEN sub-goal dataset (generation in Rust, memory-mapped shards)
 and the sub-goal network running in Rust (``SubgoalModel``).
 
 :mod:`ddpkit.sim` runs sim2d scenarios (DDP planners in the loop, trajectory and metrics as
-arrays) and the simulated Safe-CDDP Turtlebot experiment (paper 003, §IV-C).
+arrays) and the simulated Safe-CDDP Turtlebot experiment (Alcan and Kyrki (2022), §IV-C).
 """
 
 from ddpkit._ddpkit import (

@@ -604,7 +604,8 @@ def supported_dimensions() -> list[tuple[int, int]]:
     """The ``(nx, nu)`` pairs compiled into this build."""
 
 # --------------------------------------------------------------------------------------------
-# Bezier curves, splines, motion profiles (paper 002; public as ``ddpkit.bezier``)
+# Bezier curves, splines, motion profiles (Queen Elizabeth's School (2022)); public as
+# ``ddpkit.bezier``
 # --------------------------------------------------------------------------------------------
 
 BEZIER_DEFAULT_ACCURACY: float
@@ -887,7 +888,7 @@ def spline_cost(
     samples: int = 100,
     jerk: str = "integral",
 ) -> float:
-    """Paper 002's objective for ``spline`` with a sigmoid profile:
+    """The objective of Queen Elizabeth's School (2022) for ``spline`` with a sigmoid profile:
     ``jerk_weight * J + curvature_weight * K`` (``J``: ``"integral"`` 2D jerk or the paper's
     ``"discrete"`` one; ``K``: sum of ``|curvature|`` at ``samples`` uniform times)."""
 
@@ -933,7 +934,8 @@ def optimize_spline(
     or the natural spline (C2). The GIL is released."""
 
 # --------------------------------------------------------------------------------------------
-# Safe-CDDP (paper 003): constraints, the constrained solver, chance-constraint tightening, MPC
+# Safe-CDDP of Alcan and Kyrki (2022): constraints, the constrained solver, chance-constraint
+# tightening, MPC
 # --------------------------------------------------------------------------------------------
 
 @disjoint_base
@@ -1189,7 +1191,7 @@ class Episode:
         """Applied controls, shape ``(steps, nu)``."""
 
 # --------------------------------------------------------------------------------------------
-# IDNP with adaptive grid refinement (paper 001), public as ddpkit.idnp
+# IDNP with adaptive grid refinement after Richter et al. (2023), public as ddpkit.idnp
 # --------------------------------------------------------------------------------------------
 
 def idnp_scene() -> dict[str, Any]:
@@ -1260,10 +1262,10 @@ class IdnpRun:
 def idnp_experiment(
     n: int = 200, seed: int = 1, max_iterations: int = 15, optimizer_iterations: int = 400, uniform: bool = False
 ) -> IdnpExperiment:
-    """The experiment of paper 001, Section V: ``n`` seeded initial conditions, each solved by
-    fixed-grid IDNP, adaptive IDNP and the constrained DDP alone from a straight line
-    (``uniform=True`` adds fixed-grid IDNP on the uniform grid that resolves the passage).
-    Parallel, GIL released; results depend on ``seed`` only (wall times aside)."""
+    """The experiment of Richter et al. (2023), Section V: ``n`` seeded initial conditions, each
+    solved by fixed-grid IDNP, adaptive IDNP and the constrained DDP alone from a straight line
+    (``uniform=True`` adds fixed-grid IDNP on the uniform grid that resolves the passage). Parallel,
+    GIL released; results depend on ``seed`` only (wall times aside)."""
 
 @final
 class IdnpExperiment:
@@ -1426,7 +1428,8 @@ def sim_safe_turtlebot(
 
 @final
 class TurtlebotExperiment:
-    """CDDP versus Safe-CDDP over the same seeded episodes (paper 003, §IV-C, Fig. 5)."""
+    """CDDP versus Safe-CDDP over the same seeded episodes (Alcan and Kyrki (2022), §IV-C,
+    Fig. 5)."""
 
     @property
     def runs(self) -> int:
@@ -1457,7 +1460,7 @@ class TurtlebotExperiment:
         """Draws the figure (paths and minimum-clearance histograms) to the PNG ``path``."""
 
 # --------------------------------------------------------------------------------------------
-# DDPEN sub-goal network (paper 000), public as ddpkit.subgoal.SubgoalModel
+# DDPEN sub-goal network of Gamayunov et al. (2023), public as ddpkit.subgoal.SubgoalModel
 # --------------------------------------------------------------------------------------------
 
 @final
@@ -1489,7 +1492,8 @@ class SubgoalModel:
         Releases the GIL."""
 
 # --------------------------------------------------------------------------------------------
-# DDPEN sub-goal dataset (paper 000, §II-D), public as ddpkit.subgoal.generate_dataset / sample
+# DDPEN sub-goal dataset (Gamayunov et al. (2023), §II-D), public as
+# ddpkit.subgoal.generate_dataset / sample
 # --------------------------------------------------------------------------------------------
 
 SUBGOAL_MAP_CELLS: int

@@ -1,7 +1,7 @@
 """Bézier curves, splines through waypoints, the sigmoid motion profile and time-parametrised
-trajectories (paper 002, *Developing a Minimum-Error Trajectory Generation Framework*), with
-numpy arrays in and out. Everything runs in Rust (the ``bezier`` crate); vectorised methods loop
-there with the GIL released.
+trajectories (Queen Elizabeth's School (2022), *Developing a Minimum-Error Trajectory Generation
+Framework*), with numpy arrays in and out. Everything runs in Rust (the ``bezier`` crate);
+vectorised methods loop there with the GIL released.
 
 Example::
 

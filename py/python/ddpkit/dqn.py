@@ -1,5 +1,6 @@
 """A deep Q-network that shapes a spline through waypoints and picks the sigmoid steepness ``m``
-(paper 002), and the comparison against Catmull-Rom and the direct optimiser.
+(after Queen Elizabeth's School (2022)), and the comparison against Catmull-Rom and the direct
+optimiser.
 
 The paper's formulation, and what this module does with it:
 

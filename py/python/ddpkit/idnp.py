@@ -1,5 +1,5 @@
-"""Iterative dynamic and nonlinear programming (IDNP) with adaptive grid refinement (paper 001,
-*Collision Avoidance using Iterative Dynamic and Nonlinear Programming with Adaptive Grid
+"""Iterative dynamic and nonlinear programming (IDNP) with adaptive grid refinement (Richter et
+al. (2023), *Collision Avoidance using Iterative Dynamic and Nonlinear Programming with Adaptive Grid
 Refinements*), on the crate ``idnp``'s benchmark scene: a floating base with a 2-link arm, four
 rectangular obstacles with a passage narrower than the coarse DP grid, and a goal ball for the
 tool centre point (TCP).

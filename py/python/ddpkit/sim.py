@@ -1,6 +1,6 @@
 """The sim2d simulation from Python: scenario runs with DDP planners in the loop (the DDPEN
-evaluation, paper 000) and the Safe-CDDP Turtlebot experiment (paper 003, §IV-C). Everything runs
-in Rust with the GIL released; results come back as numpy arrays.
+evaluation, Gamayunov et al. (2023)) and the Safe-CDDP Turtlebot experiment (Alcan and Kyrki
+(2022), §IV-C). Everything runs in Rust with the GIL released; results come back as numpy arrays.
 
 Example::
 
@@ -77,8 +77,8 @@ def safe_turtlebot(
     sigma_theta: Optional[float] = None,
     sigma_w_xy: Optional[float] = None,
 ) -> TurtlebotExperiment:
-    """CDDP versus Safe-CDDP on a simulated Turtlebot3 Waffle Pi (paper 003, §IV-C): ``runs``
-    seeded episodes of each (episode ``i`` meets the same noise under both), in parallel.
+    """CDDP versus Safe-CDDP on a simulated Turtlebot3 Waffle Pi (Alcan and Kyrki (2022), §IV-C):
+    ``runs`` seeded episodes of each (episode ``i`` meets the same noise under both), in parallel.
 
     ``sigma_xy`` / ``sigma_theta`` override the localisation noise (default 0.01 m, 0.02 rad),
     ``sigma_w_xy`` the per-step process noise the tightening assumes (default 0.005 m). The same

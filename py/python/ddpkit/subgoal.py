@@ -1,5 +1,5 @@
-"""DDPEN sub-goals (paper 000): the synthetic dataset the sub-goal network learns from, and the
-network itself running in Rust.
+"""DDPEN sub-goals after Gamayunov et al. (2023): the synthetic dataset the sub-goal network
+learns from, and the network itself running in Rust.
 
 The dataset (§II-D): random obstacle maps (rectangles, circles, L and U shapes under random affine
 transforms, a free centre, inflation as in the simulator's perception), A* from the centre to a

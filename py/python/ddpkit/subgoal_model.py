@@ -1,4 +1,5 @@
-"""The DDPEN sub-goal network in torch (paper 000, §II-C, Fig. 2): training, export and loading.
+"""The DDPEN sub-goal network in torch (Gamayunov et al. (2023), §II-C, Fig. 2): training, export
+and loading.
 
 ``x_s = SG_theta(map, x_goal)``: a costmap encoder, a linear goal embedding and a transformer
 decoder with one learned query per sub-goal, trained to imitate the A* sub-goals of the

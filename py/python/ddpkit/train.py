@@ -2,7 +2,8 @@
 
 Commands:
 
-- ``dqn``: train the spline-shaping DQN of :mod:`ddpkit.dqn` (paper 002) and save it::
+- ``dqn``: train the spline-shaping DQN of :mod:`ddpkit.dqn` (after Queen Elizabeth's School
+  (2022)) and save it::
 
       python -m ddpkit.train dqn --seed 0 --episodes 3000 --out runs/dqn
 
@@ -11,8 +12,9 @@ Commands:
 
       python -m ddpkit.train dqn-eval --model runs/dqn --sets 100 --seed 123 --json eval.json
 
-- ``subgoal``: train the DDPEN sub-goal network of :mod:`ddpkit.subgoal_model` (paper 000) on
-  the shards of ``subgoal-dataset`` and export it as safetensors for the Rust inference::
+- ``subgoal``: train the DDPEN sub-goal network of :mod:`ddpkit.subgoal_model` (after Gamayunov
+  et al. (2023)) on the shards of ``subgoal-dataset`` and export it as safetensors for the Rust
+  inference::
 
       python -m ddpkit.train subgoal --data DIR --out model.safetensors --epochs 2 --seed 0
 
@@ -89,7 +91,7 @@ def _dqn_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
-@command("dqn", "train the spline-shaping DQN (paper 002)", _dqn_arguments)
+@command("dqn", "train the spline-shaping DQN of Queen Elizabeth's School (2022)", _dqn_arguments)
 def _dqn(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -182,7 +184,7 @@ def _subgoal_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="PATH", help="also write the training summary as JSON")
 
 
-@command("subgoal", "train the DDPEN sub-goal network (paper 000) and export it as safetensors", _subgoal_arguments)
+@command("subgoal", "train the DDPEN sub-goal network of Gamayunov et al. (2023) and export it as safetensors", _subgoal_arguments)
 def _subgoal(args: argparse.Namespace) -> int:
     from ddpkit import subgoal_model as sm
 

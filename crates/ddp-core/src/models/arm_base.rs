@@ -48,9 +48,10 @@ impl Default for ArmBaseParams {
 }
 
 /// A rigid base floating in the plane (no gravity) with a 2-link arm: the planar version of the
-/// satellite manipulator of IDNP (paper 001, Section V-B). That paper approximates the joints by
-/// double integrators and its physical parameters are not in our copy of the text; this model keeps
-/// the full coupling between base and arm, with [`ArmBaseParams::default`] for a small satellite.
+/// satellite manipulator of IDNP (Richter et al. (2023), Section V-B). That paper approximates the
+/// joints by double integrators and its physical parameters are not in our copy of the text; this
+/// model keeps the full coupling between base and arm, with [`ArmBaseParams::default`] for a small
+/// satellite.
 ///
 /// Configuration `q = (x, y, theta, q1, q2)`: base centre of mass in the world frame (m), base
 /// attitude (rad), shoulder and elbow joint angles (rad, relative: link 1 points along

@@ -38,7 +38,10 @@ pub use double_integrator::DoubleIntegrator2D;
 pub use quadrotor::Quadrotor;
 pub use unicycle::Unicycle;
 
-use crate::{Error, Matrix, Result};
+// The constructors' validators (`?` turns a failure into an `Error::Invalid` naming the field).
+use ddpkit_util::check::{finite, nonnegative, positive};
+
+use crate::Matrix;
 
 /// Sets `m` to the identity (a slice fill: nalgebra's element iterators are slow in hot loops).
 #[inline]
@@ -53,31 +56,4 @@ fn set_identity<const N: usize>(m: &mut Matrix<N, N>) {
 #[inline]
 fn set_zero<const R: usize, const C: usize>(m: &mut Matrix<R, C>) {
     m.as_mut_slice().fill(0.0);
-}
-
-/// `value` if it is finite and strictly positive, else an error naming `field`.
-fn positive(field: &str, value: f64) -> Result<f64> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(Error::invalid(field, format!("must be finite and > 0, got {value}")))
-    }
-}
-
-/// `value` if it is finite and not negative, else an error naming `field`.
-fn nonnegative(field: &str, value: f64) -> Result<f64> {
-    if value.is_finite() && value >= 0.0 {
-        Ok(value)
-    } else {
-        Err(Error::invalid(field, format!("must be finite and >= 0, got {value}")))
-    }
-}
-
-/// `value` if it is finite, else an error naming `field`.
-fn finite(field: &str, value: f64) -> Result<f64> {
-    if value.is_finite() {
-        Ok(value)
-    } else {
-        Err(Error::invalid(field, format!("must be finite, got {value}")))
-    }
 }

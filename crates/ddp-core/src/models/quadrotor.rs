@@ -5,9 +5,10 @@ use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 
 /// A quadrotor as a rigid body driven by its collective thrust and three body torques: the
-/// 12-state, 4-input quadrotor of the Safe-CDDP benchmark (paper 003, Table I, after Alcan and
-/// Unel 2017). Paper 003 gives no physical parameters; the defaults are the widely used small
-/// quadrotor `m = 0.468` kg, `J = diag(4.856e-3, 4.856e-3, 8.801e-3)` kg m^2, `g = 9.81` m/s^2.
+/// 12-state, 4-input quadrotor of the Safe-CDDP benchmark (Alcan and Kyrki (2022), Table I, after
+/// Alcan and Unel 2017). Alcan and Kyrki (2022) give no physical parameters; the defaults are the
+/// widely used small quadrotor `m = 0.468` kg, `J = diag(4.856e-3, 4.856e-3, 8.801e-3)` kg m^2,
+/// `g = 9.81` m/s^2.
 ///
 /// State `x = (p, eta, v, omega)` with
 /// - `p = (px, py, pz)`: position in the world frame (z up), m;

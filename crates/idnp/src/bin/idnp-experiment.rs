@@ -1,4 +1,4 @@
-//! The experiment of paper 001, Section V (issue #7): seeded initial conditions, each solved by
+//! The experiment of Richter et al. (2023), Section V: seeded initial conditions, each solved by
 //! fixed-grid IDNP, adaptive IDNP and the NLP alone; prints the table, checks that the adaptive
 //! grid never solves fewer cases than the fixed one, and writes a figure like Fig. 3.
 //!
@@ -17,8 +17,8 @@ use idnp::idnp::Variant;
 use idnp::scene::Scene;
 use indicatif::{ProgressBar, ProgressStyle};
 
-/// IDNP with adaptive grid refinement: the experiment of paper 001 on a planar base with a 2-link
-/// arm and a narrow passage.
+/// IDNP with adaptive grid refinement: the experiment of Richter et al. (2023) on a planar base
+/// with a 2-link arm and a narrow passage.
 #[derive(Parser, Debug)]
 #[command(version, about)]
 struct Args {
@@ -64,10 +64,8 @@ fn write_json(path: &PathBuf, result: &ExperimentResult) -> Result<(), String> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     }
-    let tmp = path.with_extension("json.tmp");
     let text = serde_json::to_string_pretty(result).map_err(|e| format!("cannot serialise the results: {e}"))?;
-    std::fs::write(&tmp, text).map_err(|e| format!("cannot write {}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("cannot rename {} to {}: {e}", tmp.display(), path.display()))
+    ddpkit_util::fs::write_atomic(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 fn run(args: Args) -> Result<bool, String> {

@@ -225,7 +225,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             seconds,
             rows,
         };
-        write_atomically(path, serde_json::to_string_pretty(&out)?.as_bytes())?;
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)?;
+        }
+        // Whole or absent: a temporary file, then a rename.
+        ddpkit_util::fs::write_atomic(path, serde_json::to_string_pretty(&out)?)?;
         println!("wrote {}", path.display());
     }
     if let Some(path) = &args.figure {
@@ -283,18 +287,6 @@ fn print_table(rows: &[Row]) {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file and a rename: the file is whole or absent.
-fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    if let Some(dir) = path.parent() {
-        if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir)?;
-        }
-    }
-    let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(&tmp, path)
-}
-
 const CDDP_COLOR: RGBColor = RGBColor(214, 39, 40);
 const FIXED_COLOR: RGBColor = RGBColor(31, 119, 180);
 const SAFE_COLOR: RGBColor = RGBColor(44, 160, 44);
@@ -324,15 +316,15 @@ fn figure(
     let safe = find(|m| matches!(m, Method::SafeCddp { beta } if *beta == 0.99));
     let fixed = find(|m| matches!(m, Method::FixedGains { .. }));
     let open = find(|m| matches!(m, Method::OpenLoop { .. }));
-    let tmp = path.with_extension("tmp.png");
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir)?;
         }
     }
-    {
+    // Drawn to a temporary PNG next to `path` and renamed: the figure is whole or absent.
+    ddpkit_util::fs::write_atomic_at(path, |tmp: &Path| -> Result<(), Box<dyn std::error::Error>> {
         let (width, height) = (2000u32, 520u32);
-        let root = BitMapBackend::new(&tmp, (width, height)).into_drawing_area();
+        let root = BitMapBackend::new(tmp, (width, height)).into_drawing_area();
         root.fill(&WHITE)?;
         let (left, right) = root.split_horizontally(1100);
         let panels = [
@@ -419,7 +411,6 @@ fn figure(
             }
         }
         root.present()?;
-    }
-    std::fs::rename(&tmp, path)?;
-    Ok(())
+        Ok(())
+    })
 }

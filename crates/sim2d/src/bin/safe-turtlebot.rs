@@ -1,5 +1,6 @@
-//! The Safe-CDDP hardware experiment (paper 003, §IV-C, Fig. 5) in simulation: a Turtlebot3
-//! Burger in sim2d's rapier world, CDDP versus Safe-CDDP (`beta = 0.8`) over seeded episodes.
+//! The Safe-CDDP hardware experiment (Alcan and Kyrki (2022), §IV-C, Fig. 5) in simulation: a
+//! Turtlebot3 Burger in sim2d's rapier world, CDDP versus Safe-CDDP (`beta = 0.8`) over seeded
+//! episodes.
 //!
 //! ```text
 //! cargo run --release -p sim2d --bin safe-turtlebot -- --runs 100 --seed 1 \
@@ -15,11 +16,9 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
-use sim2d::turtlebot::{
-    experiment_json, run_experiment, write_atomic, write_figure, Summary, Turtlebot, TurtlebotConfig,
-};
+use sim2d::turtlebot::{experiment_json, run_experiment, write_figure, Summary, Turtlebot, TurtlebotConfig};
 
-/// CDDP versus Safe-CDDP on a simulated Turtlebot3 (paper 003, §IV-C).
+/// CDDP versus Safe-CDDP on a simulated Turtlebot3 (Alcan and Kyrki (2022), §IV-C).
 #[derive(Debug, Parser)]
 #[command(version)]
 struct Args {
@@ -145,8 +144,7 @@ fn run(args: Args) -> sim2d::Result<()> {
     if let Some(path) = &args.json {
         let mut v = experiment_json(&e, args.paths);
         v["wall_s"] = serde_json::json!(wall);
-        let text = serde_json::to_vec_pretty(&v).map_err(|err| sim2d::Error::write(path, err))?;
-        write_atomic(path, &text)?;
+        sim2d::batch::write_json(path, &v)?;
         println!("wrote {}", path.display());
     }
     if let Some(path) = &args.png {

@@ -146,9 +146,9 @@ fn run(args: Args) -> sim2d::Result<()> {
     };
     args.planner.apply(&mut base);
     base.validate()?;
-    if planners.contains(&PlannerKind::Ddpen) {
-        // Fail early, naming the model, rather than in every run.
-        sim2d::ddpen::load_model(base.ddp.subgoal_model)?;
+    // Fail early (`ddpen`: naming the model) rather than in every run.
+    for p in &planners {
+        p.prepare(&base.ddp, &base.ddpen)?;
     }
 
     let mut jobs = Vec::new();

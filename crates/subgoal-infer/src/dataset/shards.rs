@@ -282,7 +282,7 @@ pub fn write_dataset(
         })).collect::<Vec<_>>(),
     });
     let text = serde_json::to_string_pretty(&manifest).map_err(|e| io_err("out_dir", &manifest_path, e))?;
-    write_atomic(&manifest_path, text.as_bytes())?;
+    ddpkit_util::fs::write_atomic(&manifest_path, text).map_err(|e| io_err("out_dir", &manifest_path, e))?;
     Ok(DatasetSummary {
         dir: out_dir.to_path_buf(),
         samples: opts.samples,
@@ -306,16 +306,6 @@ fn remove_stale_shards(dir: &Path, keep: usize) -> Result<(), DatasetError> {
         }
     }
     Ok(())
-}
-
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("file");
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    std::fs::write(&tmp, bytes).map_err(|e| io_err("out_dir", &tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        io_err("out_dir", path, e)
-    })
 }
 
 fn le_bytes_f32(v: impl Iterator<Item = f32>) -> Vec<u8> {
@@ -386,22 +376,15 @@ fn write_shard(
     while header.len() % 8 != 0 {
         header.push(' ');
     }
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("shard");
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    let write = || -> std::io::Result<()> {
-        let mut f = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(&tmp)?);
+    ddpkit_util::fs::write_atomic_with(path, |f| {
         f.write_all(&(header.len() as u64).to_le_bytes())?;
         f.write_all(header.as_bytes())?;
         for (_, _, _, data) in &tensors {
             f.write_all(data)?;
         }
-        f.into_inner().map_err(|e| e.into_error())?.sync_all()
-    };
-    if let Err(e) = write().and_then(|()| std::fs::rename(&tmp, path)) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io_err("out_dir", path, e));
-    }
-    Ok(())
+        Ok(())
+    })
+    .map_err(|e| io_err("out_dir", path, e))
 }
 
 #[cfg(feature = "parallel")]

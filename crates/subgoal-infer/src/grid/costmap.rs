@@ -6,7 +6,7 @@
 //! where `(ox, oy)` is the [`GridGeometry::origin`] (the outer corner of cell `(0, 0)`) and `r`
 //! the resolution.
 
-use crate::error::{finite2, positive, Error, Result};
+use crate::error::{finite_each, positive, Error, Result};
 
 /// Free space.
 pub const FREE: u8 = 0;
@@ -46,7 +46,7 @@ impl GridGeometry {
             return Err(Error::invalid("width", format!("{width} x {height} cells is too many")));
         }
         positive("resolution", resolution)?;
-        finite2("origin", origin)?;
+        finite_each("origin", origin)?;
         Ok(Self {
             width,
             height,
@@ -59,7 +59,7 @@ impl GridGeometry {
     /// lattice of step `resolution` (so a rolling window keeps its cells when it moves).
     pub fn centered(center: [f64; 2], width: usize, height: usize, resolution: f64) -> Result<Self> {
         let mut g = Self::new(width, height, resolution, [0.0, 0.0])?;
-        finite2("center", center)?;
+        finite_each("center", center)?;
         g.origin = g.aligned_origin(center);
         Ok(g)
     }

@@ -162,11 +162,9 @@ fn in_range(field: &str, v: usize, lo: usize, hi: usize) -> Result<()> {
 }
 
 fn positive(field: &str, v: f32) -> Result<()> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(bad(field, format!("must be finite and > 0, got {v}")))
-    }
+    ddpkit_util::check::positive(field, v)
+        .map(|_| ())
+        .map_err(|e| bad(field, e.reason()))
 }
 
 impl ModelConfig {

@@ -1,5 +1,6 @@
-//! The DDPEN sub-goal network (paper 000, §II-C, Fig. 2), `x_s = SG_theta(map, x_goal)`, run
-//! from the safetensors file that `python -m ddpkit.train subgoal` exports.
+//! The DDPEN sub-goal network (Gamayunov et al. (2023), §II-C, Fig. 2),
+//! `x_s = SG_theta(map, x_goal)`, run from the safetensors file that
+//! `python -m ddpkit.train subgoal` exports.
 //!
 //! ```
 //! use subgoal_infer::grid::{Costmap, LETHAL};

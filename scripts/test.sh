@@ -26,4 +26,4 @@ rm -rf "$CACHE/wheels"
 "$VENV/bin/python" -m pip install -q --force-reinstall --no-deps "$CACHE"/wheels/*.whl
 
 echo "== pytest"
-"$VENV/bin/python" -m pytest -q py/tests
+"$VENV/bin/python" -m pytest -q py/tests tests/python

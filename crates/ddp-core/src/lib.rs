@@ -33,6 +33,7 @@ pub mod models;
 pub mod penalty;
 pub mod problem;
 pub mod reference;
+pub mod runtime;
 pub mod solver;
 
 pub use cost::{Cost, CostDerivatives, TerminalCost, TerminalDerivatives};

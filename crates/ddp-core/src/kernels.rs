@@ -40,7 +40,8 @@ pub fn tr_mul_add<K: Dim, R: Dim, C: Dim>(
     }
 }
 
-/// `out = A B` (`A` is `R x K`, `B` is `K x C`).
+/// `out = A B` (`A` is `R x K`, `B` is `K x C`). Each entry is summed in a register (the
+/// sum runs over `k` in order, as `A B` written out).
 #[inline(always)]
 pub fn mul_to<R: Dim, K: Dim, C: Dim>(out: &mut MatrixN<R, C>, a: &MatrixN<R, K>, b: &MatrixN<K, C>)
 where
@@ -51,13 +52,11 @@ where
     let o = out.as_mut_slice();
     for j in 0..cc {
         for i in 0..r {
-            o[j * r + i] = 0.0;
-        }
-        for k in 0..kk {
-            let bkj = b[j * kk + k];
-            for i in 0..r {
-                o[j * r + i] += a[k * r + i] * bkj;
+            let mut s = 0.0;
+            for k in 0..kk {
+                s += a[k * r + i] * b[j * kk + k];
             }
+            o[j * r + i] = s;
         }
     }
 }

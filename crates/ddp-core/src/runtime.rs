@@ -17,8 +17,9 @@
 //! let model = RunTimeSize::new(Unicycle::new(0.1)?);
 //! let q = nalgebra::DMatrix::<f64>::identity(3, 3) * 100.0;
 //! let r = nalgebra::DMatrix::<f64>::identity(2, 2);
-//! let running = QuadraticCost::<Dyn, Dyn>::new(q.clone(), r, VectorN::zeros(3), VectorN::zeros(2))?;
-//! let terminal = QuadraticTerminal::<Dyn>::new(q, VectorN::zeros(3))?;
+//! let zeros = |n| nalgebra::DVector::<f64>::zeros(n);
+//! let running = QuadraticCost::<Dyn, Dyn>::new(q.clone(), r, zeros(3), zeros(2))?;
+//! let terminal = QuadraticTerminal::<Dyn>::new(q, zeros(3))?;
 //! let x0 = VectorN::<Dyn>::from_vec(vec![-1.0, -1.0, 1.0]);
 //! let problem = Problem::new(x0, Arc::new(model), Arc::new(running), Arc::new(terminal), 50)?;
 //! let mut solver = Solver::new(&problem, Settings::default())?;

@@ -766,8 +766,9 @@ where
             // (Q_uu + mu I) K = -Q_ux and likewise for k, so the brackets of the update are
             // -mu K and -mu k and both collapse to one product with G = Q_ux - mu K:
             //   V_x = Q_x + G^T k,   V_xx = Q_xx + G^T K.
-            for (g, (&a, &b)) in q.t_ux.iter_mut().zip(q.q_ux.iter().zip(k_fb.iter())) {
-                *g = a - mu * b;
+            let (g, a, b) = (q.t_ux.as_mut_slice(), q.q_ux.as_slice(), k_fb.as_slice());
+            for i in 0..g.len() {
+                g[i] = a[i] - mu * b[i];
             }
             tr_mul_vec_add(&mut v_x_k[k], Some(&q.q_x), &q.t_ux, k_ff);
             sym_tr_mul_add(&mut v_xx_k[k], &q.q_xx, &q.t_ux, k_fb);

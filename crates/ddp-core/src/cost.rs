@@ -40,11 +40,12 @@ where
     }
     /// Sets every derivative to zero (in place).
     pub fn clear(&mut self) {
-        self.lx.fill(0.0);
-        self.lu.fill(0.0);
-        self.lxx.fill(0.0);
-        self.luu.fill(0.0);
-        self.lux.fill(0.0);
+        // Over the storage: nalgebra's element-wise fill walks strides.
+        self.lx.as_mut_slice().fill(0.0);
+        self.lu.as_mut_slice().fill(0.0);
+        self.lxx.as_mut_slice().fill(0.0);
+        self.luu.as_mut_slice().fill(0.0);
+        self.lux.as_mut_slice().fill(0.0);
     }
 }
 
@@ -82,8 +83,8 @@ where
     }
     /// Sets every derivative to zero (in place).
     pub fn clear(&mut self) {
-        self.lx.fill(0.0);
-        self.lxx.fill(0.0);
+        self.lx.as_mut_slice().fill(0.0);
+        self.lxx.as_mut_slice().fill(0.0);
     }
 }
 

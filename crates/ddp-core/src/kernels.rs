@@ -10,6 +10,20 @@ use nalgebra::{Dim, RawStorage, RawStorageMut};
 
 use crate::dims::{Allocator, DefaultAllocator, MatrixN};
 
+/// `s + sum_k a_k b_k`, summed in order from `s` (the rounding of the loop written out). Short
+/// lengths are written out: for compile-time sizes the match folds away, for run-time sizes a
+/// branch replaces the iterator's per-element overhead (the same sums, the same rounding).
+#[inline(always)]
+fn dot_from(s: f64, a: &[f64], b: &[f64]) -> f64 {
+    match (a, b) {
+        ([a0], [b0, ..]) => s + a0 * b0,
+        ([a0, a1], [b0, b1, ..]) => s + a0 * b0 + a1 * b1,
+        ([a0, a1, a2], [b0, b1, b2, ..]) => s + a0 * b0 + a1 * b1 + a2 * b2,
+        ([a0, a1, a2, a3], [b0, b1, b2, b3, ..]) => s + a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3,
+        _ => a.iter().zip(b).fold(s, |s, (x, y)| s + x * y),
+    }
+}
+
 /// `out = c + A^T B` (`A` is `K x R`, `B` is `K x C`); `c` may be `None` for zero. The product
 /// is summed first and `c` added last.
 #[inline(always)]
@@ -21,20 +35,19 @@ pub fn tr_mul_add<K: Dim, R: Dim, C: Dim>(
 ) where
     DefaultAllocator: Allocator<K, R> + Allocator<K, C> + Allocator<R, C>,
 {
+    // Columns are sliced by offset (no `chunks_exact`: its length division is a real `div` for
+    // run-time sizes).
     let (kk, r, cc) = (a.nrows(), a.ncols(), b.ncols());
     let (a, b) = (a.as_slice(), b.as_slice());
     let c = c.map(|c| c.as_slice());
     let o = out.as_mut_slice();
     for j in 0..cc {
+        let bj = &b[j * kk..(j + 1) * kk];
         for i in 0..r {
-            let mut s = 0.0;
-            for k in 0..kk {
-                s += a[i * kk + k] * b[j * kk + k];
-            }
-            // The product first, then `c` (the rounding of `c + A^T B` written out).
+            let p = dot_from(0.0, &a[i * kk..(i + 1) * kk], bj);
             o[j * r + i] = match c {
-                Some(c) => c[j * r + i] + s,
-                None => s,
+                Some(c) => c[j * r + i] + p,
+                None => p,
             };
         }
     }
@@ -51,12 +64,20 @@ where
     let (a, b) = (a.as_slice(), b.as_slice());
     let o = out.as_mut_slice();
     for j in 0..cc {
+        let bj = &b[j * kk..(j + 1) * kk];
         for i in 0..r {
-            let mut s = 0.0;
-            for k in 0..kk {
-                s += a[k * r + i] * b[j * kk + k];
-            }
-            o[j * r + i] = s;
+            o[j * r + i] = match bj {
+                [b0] => a[i] * b0,
+                [b0, b1] => a[i] * b0 + a[r + i] * b1,
+                [b0, b1, b2] => a[i] * b0 + a[r + i] * b1 + a[2 * r + i] * b2,
+                _ => {
+                    let mut s = 0.0;
+                    for (k, bk) in bj.iter().enumerate() {
+                        s += a[k * r + i] * bk;
+                    }
+                    s
+                }
+            };
         }
     }
 }
@@ -76,11 +97,12 @@ pub fn mul_vec_add<R: Dim, K: Dim>(
     let o = out.as_mut_slice();
     match c {
         Some(c) => o.copy_from_slice(c.as_slice()),
-        None => o.iter_mut().for_each(|v| *v = 0.0),
+        None => o.fill(0.0),
     }
     for k in 0..kk {
-        for i in 0..r {
-            o[i] += a[k * r + i] * x[k];
+        let (ak, xk) = (&a[k * r..(k + 1) * r], x[k]);
+        for (oi, aik) in o.iter_mut().zip(ak) {
+            *oi += aik * xk;
         }
     }
 }
@@ -100,19 +122,16 @@ pub fn tr_mul_vec_add<K: Dim, R: Dim>(
     let c = c.map(|c| c.as_slice());
     let o = out.as_mut_slice();
     for i in 0..r {
-        let mut s = 0.0;
-        for k in 0..kk {
-            s += a[i * kk + k] * x[k];
-        }
+        let p = dot_from(0.0, &a[i * kk..(i + 1) * kk], x);
         o[i] = match c {
-            Some(c) => c[i] + s,
-            None => s,
+            Some(c) => c[i] + p,
+            None => p,
         };
     }
 }
 
-/// `out = C + A^T B` for a product known to be symmetric: the upper triangle is computed and
-/// mirrored (`A`, `B` are `K x N`).
+/// `out = C + A^T B` for a product known to be symmetric: the upper triangle is computed (from
+/// `C`, then the products in order) and mirrored (`A`, `B` are `K x N`).
 #[inline(always)]
 pub fn sym_tr_mul_add<K: Dim, N: Dim>(out: &mut MatrixN<N, N>, c: &MatrixN<N, N>, a: &MatrixN<K, N>, b: &MatrixN<K, N>)
 where
@@ -122,11 +141,9 @@ where
     let (a, b, c) = (a.as_slice(), b.as_slice(), c.as_slice());
     let o = out.as_mut_slice();
     for j in 0..n {
+        let bj = &b[j * kk..(j + 1) * kk];
         for i in 0..=j {
-            let mut s = c[j * n + i];
-            for k in 0..kk {
-                s += a[i * kk + k] * b[j * kk + k];
-            }
+            let s = dot_from(c[j * n + i], &a[i * kk..(i + 1) * kk], bj);
             o[j * n + i] = s;
             o[i * n + j] = s;
         }
@@ -150,15 +167,53 @@ pub fn sym_tr_mul2_add<K: Dim, N: Dim>(
     let (a, b, c, d, e) = (a.as_slice(), b.as_slice(), c.as_slice(), d.as_slice(), e.as_slice());
     let o = out.as_mut_slice();
     for j in 0..n {
+        let (bj, ej) = (&b[j * kk..(j + 1) * kk], &e[j * kk..(j + 1) * kk]);
         for i in 0..=j {
+            let (ai, di) = (&a[i * kk..(i + 1) * kk], &d[i * kk..(i + 1) * kk]);
             let mut s = c[j * n + i];
             for k in 0..kk {
-                s += a[i * kk + k] * b[j * kk + k] + d[i * kk + k] * e[j * kk + k];
+                s += ai[k] * bj[k] + di[k] * ej[k];
             }
             o[j * n + i] = s;
             o[i * n + j] = s;
         }
     }
+}
+
+/// `dst <- src` over the storage (nalgebra's element-wise copy walks strides).
+#[inline(always)]
+pub fn copy<R: Dim, C: Dim>(dst: &mut MatrixN<R, C>, src: &MatrixN<R, C>)
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    dst.as_mut_slice().copy_from_slice(src.as_slice());
+}
+
+/// `m <- 0` over the storage.
+#[inline(always)]
+pub fn zero<R: Dim, C: Dim>(m: &mut MatrixN<R, C>)
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    m.as_mut_slice().fill(0.0);
+}
+
+/// `m <- -m` over the storage.
+#[inline(always)]
+pub fn negate<R: Dim, C: Dim>(m: &mut MatrixN<R, C>)
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    m.as_mut_slice().iter_mut().for_each(|v| *v = -*v);
+}
+
+/// `dst <- dst + src` over the storage.
+#[inline(always)]
+pub fn add_to<R: Dim, C: Dim>(dst: &mut MatrixN<R, C>, src: &MatrixN<R, C>)
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    dst.as_mut_slice().iter_mut().zip(src.as_slice()).for_each(|(d, s)| *d += s);
 }
 
 /// Cholesky factorisation `A = L L^T` in place: the lower triangle of `a` becomes `L` (the

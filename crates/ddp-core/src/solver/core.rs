@@ -24,8 +24,8 @@
 use crate::boxqp::box_qp;
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
 use crate::kernels::{
-    cholesky_in_place, cholesky_solve_in_place, mul_to, mul_vec_add, sym_tr_mul2_add, sym_tr_mul_add, tr_mul_add,
-    tr_mul_vec_add,
+    add_to, cholesky_in_place, cholesky_solve_in_place, copy, mul_to, mul_vec_add, negate, sym_tr_mul2_add,
+    sym_tr_mul_add, tr_mul_add, tr_mul_vec_add,
 };
 use crate::solver::settings::{LineSearchSettings, Method, Regularization, RegularizationSettings};
 use crate::{ControlBounds, CostDerivatives, Problem, TerminalDerivatives};
@@ -252,7 +252,7 @@ where
     /// Factors `q_uu_r` into `chol` (lower triangle); `Err` when not positive definite.
     #[inline(always)]
     pub fn factor(&mut self) -> Result<(), NotPositiveDefinite> {
-        self.chol.copy_from(&self.q_uu_r);
+        copy(&mut self.chol, &self.q_uu_r);
         if cholesky_in_place(&mut self.chol) {
             Ok(())
         } else {
@@ -264,12 +264,12 @@ where
     /// `K = -Q_uu^-1 Q_ux` (regularised).
     #[inline(always)]
     pub fn newton_step(&self, k_ff: &mut VectorN<NU>, k_fb: &mut MatrixN<NU, NX>) {
-        k_ff.copy_from(&self.q_u);
+        copy(k_ff, &self.q_u);
         cholesky_solve_in_place(&self.chol, k_ff);
-        k_ff.neg_mut();
-        k_fb.copy_from(&self.q_ux_r);
+        negate(k_ff);
+        copy(k_fb, &self.q_ux_r);
         cholesky_solve_in_place(&self.chol, k_fb);
-        k_fb.neg_mut();
+        negate(k_fb);
     }
 }
 
@@ -628,8 +628,9 @@ where
         for (k, knot) in problem.knots()[..n].iter().enumerate() {
             let (head, tail) = t.xs_try.split_at_mut(k + 1);
             let x = &head[k];
-            self.dx.copy_from(x);
-            self.dx -= &t.xs[k];
+            for ((d, a), b) in self.dx.as_mut_slice().iter_mut().zip(x.as_slice()).zip(t.xs[k].as_slice()) {
+                *d = a - b;
+            }
             mul_vec_add(&mut self.du, None, &self.policy.k_fb[k], &self.dx);
             let u = &mut t.us_try[k];
             for i in 0..u.len() {
@@ -720,8 +721,8 @@ where
     let ddp = opts.method == Method::Ddp;
     let mu = opts.mu;
     let control_reg = opts.placement == Regularization::Control;
-    value.v_x[n].copy_from(&lin.l_n.lx);
-    value.v_xx[n].copy_from(&lin.l_n.lxx);
+    copy(&mut value.v_x[n], &lin.l_n.lx);
+    copy(&mut value.v_xx[n], &lin.l_n.lxx);
     gains.add_curvature(n, &mut value.v_xx[n]);
     let mut e = Expected::default();
     for k in (0..n).rev() {
@@ -734,9 +735,9 @@ where
         if ddp {
             let knot = &problem.knots()[k];
             if knot.dynamics.has_second_order() {
-                q.g_xx.copy_from(&q.q_xx);
-                q.g_ux.copy_from(&q.q_ux);
-                q.g_uu.copy_from(&q.q_uu);
+                copy(&mut q.g_xx, &q.q_xx);
+                copy(&mut q.g_ux, &q.q_ux);
+                copy(&mut q.g_uu, &q.q_uu);
                 knot.dynamics
                     .add_second_order(&xs[k], &us[k], v_x, &mut q.g_xx, &mut q.g_ux, &mut q.g_uu);
                 // Full DDP adds V_x' . f_xx etc. Far from a minimum that can make the Q block
@@ -774,12 +775,12 @@ where
             sym_tr_mul_add(&mut v_xx_k[k], &q.q_xx, &q.t_ux, k_fb);
         } else {
             // Valid for any affine policy du = k + K dx (Xie et al. 2017, eq. (14)).
-            q.m_k += &q.q_u;
+            add_to(&mut q.m_k, &q.q_u);
             mul_to(&mut q.m_kk, &q.q_uu, k_fb);
-            q.m_kk += &q.q_ux;
+            add_to(&mut q.m_kk, &q.q_ux);
             tr_mul_vec_add(&mut v_x_k[k], Some(&q.q_x), k_fb, &q.m_k);
             tr_mul_vec_add(&mut q.t_x, None, &q.q_ux, k_ff);
-            v_x_k[k] += &q.t_x;
+            add_to(&mut v_x_k[k], &q.t_x);
             sym_tr_mul2_add(&mut v_xx_k[k], &q.q_xx, k_fb, &q.m_kk, &q.q_ux, k_fb);
         }
     }
@@ -821,11 +822,13 @@ fn regularize<NX: Dim, NU: Dim>(
 {
     match placement {
         Regularization::Control => {
-            q.q_uu_r.copy_from(&q.q_uu);
-            for i in 0..q.q_uu_r.nrows() {
-                q.q_uu_r[(i, i)] += mu;
+            copy(&mut q.q_uu_r, &q.q_uu);
+            let m = q.q_uu_r.nrows();
+            let r = q.q_uu_r.as_mut_slice();
+            for i in 0..m {
+                r[i * m + i] += mu;
             }
-            q.q_ux_r.copy_from(&q.q_ux);
+            copy(&mut q.q_ux_r, &q.q_ux);
         }
         Regularization::State => {
             tr_mul_add(&mut q.q_uu_r, None, fu, fu);
@@ -837,11 +840,12 @@ fn regularize<NX: Dim, NU: Dim>(
         }
     }
     let m = q.q_uu_r.nrows();
+    let r = q.q_uu_r.as_mut_slice();
     for j in 0..m {
         for i in 0..j {
-            let s = 0.5 * (q.q_uu_r[(i, j)] + q.q_uu_r[(j, i)]);
-            q.q_uu_r[(i, j)] = s;
-            q.q_uu_r[(j, i)] = s;
+            let s = 0.5 * (r[j * m + i] + r[i * m + j]);
+            r[j * m + i] = s;
+            r[i * m + j] = s;
         }
     }
 }

@@ -42,14 +42,14 @@
 //!
 //! | symbol | field / accessor | equation |
 //! |---|---|---|
-//! | `Q_x, Q_u, Q_xx, Q_uu, Q_ux` | `q_x, q_u, q_xx, q_uu, q_ux` (`q_uu_r = Q_uu + mu I`) | (5) |
-//! | `C, D` (`g~_u`, `g~_x` of the rows of a knot) | `row_c`, `row_d` | (8) |
+//! | `Q_x, Q_u, Q_xx, Q_uu, Q_ux` | the core's `QBlocks` (`q_uu_r = Q_uu + mu I`) | (5) |
+//! | `C, D` (`g~_u`, `g~_x` of the rows of a knot) | `rows.c`, `rows.d` | (8) |
 //! | `lambda` | [`SafeCddpSolver::multipliers`] | (10) |
 //! | `K, d` | [`SafeCddpSolver::gains`], [`SafeCddpSolver::feedforward`] | (11)-(12) |
-//! | `V_x, V_xx` | `v_x`, `v_xx` | (14) |
+//! | `V_x, V_xx` | the core's `ValueFunction` | (14) |
 //! | `du*` | solution of [`crate::qp::StepQp::solve`] | (15)-(16) |
 //! | `Sigma_x` | [`SafeCddpSolver::covariances`] | (19) |
-//! | `phi^{-1}(beta) sqrt(g_x^T Sigma_x g_x)` | [`SafeCddpSolver::margins`] (`row_margin`) | (20) |
+//! | `phi^{-1}(beta) sqrt(g_x^T Sigma_x g_x)` | [`SafeCddpSolver::margins`] (`rows.margin`) | (20) |
 //! | `epsilon` (active set) | [`Settings::active_threshold`] | §III-A |
 //! | `n1`, `n2` | [`crate::mpc::MpcSettings::iterations`], [`crate::Tightening::update_every`] | Alg. 1 |
 

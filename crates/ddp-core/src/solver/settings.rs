@@ -93,22 +93,16 @@ impl Default for Tolerances {
     }
 }
 
-/// `settings.<name>` must be finite and `> 0`.
+/// `settings.<name>` must be finite and `> 0` (ddpkit-util's validator, the field prefixed).
 pub(crate) fn positive(name: &str, v: f64) -> Result<()> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::invalid(format!("settings.{name}"), format!("must be finite and > 0, got {v}")))
-    }
+    ddpkit_util::check::positive(&format!("settings.{name}"), v)?;
+    Ok(())
 }
 
 /// `settings.<name>` must be finite and `>= 0`.
 pub(crate) fn nonnegative(name: &str, v: f64) -> Result<()> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(Error::invalid(format!("settings.{name}"), format!("must be finite and >= 0, got {v}")))
-    }
+    ddpkit_util::check::nonnegative(&format!("settings.{name}"), v)?;
+    Ok(())
 }
 
 impl RegularizationSettings {

@@ -101,8 +101,8 @@ class DdpError(Exception):
     field: str
 
 class ShapeError(DdpError, ValueError):
-    """An array has the wrong shape, a list the wrong length, or the ``(nx, nu)`` pair of a
-    model is not compiled into this build (see :func:`supported_dimensions`)."""
+    """An array has the wrong shape, a list the wrong length, or pieces of a problem disagree in
+    size (or Safe-CDDP gets a pair outside :func:`supported_dimensions`)."""
 
 class NotFiniteError(DdpError, ValueError):
     """A value that must be finite is NaN or infinite. The message gives the flat index."""
@@ -597,11 +597,17 @@ class Solution:
     def table(self) -> str:
         """The iteration table (no timings, so it is deterministic)."""
 
-def default_settings() -> dict[str, Union[str, int, float]]:
-    """The default solver settings (``ddp_core::Settings::default()``)."""
+def default_settings(kind: str = "Solver") -> dict[str, Any]:
+    """The defaults of the keyword arguments of ``kind``: ``"Solver"``
+    (``ddp_core::Settings::default()``), ``"SafeCddpSolver"`` (``safe_cddp::Settings::default()``)
+    or ``"Mpc"`` (``safe_cddp::mpc::MpcSettings::default()``). The classes' signatures take their
+    defaults from the same Rust values."""
 
 def supported_dimensions() -> list[tuple[int, int]]:
-    """The ``(nx, nu)`` pairs compiled into this build."""
+    """The ``(nx, nu)`` pairs compiled into this build: the fixed-size fast path of the built-in
+    robots, and the sizes :class:`SafeCddpSolver` and :class:`Mpc` support. Every other size
+    ``nx >= 1, nu >= 1`` (up to 1024 states and 512 controls) works with :class:`Solver` at
+    run-time sizes."""
 
 # --------------------------------------------------------------------------------------------
 # Bezier curves, splines, motion profiles (paper 002; public as ``ddpkit.bezier``)

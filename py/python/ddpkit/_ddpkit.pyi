@@ -1150,8 +1150,8 @@ class Mpc:
     the trajectory is shifted and the horizon shortened. An episode ends in the goal region
     (``goal_radius`` around ``goal`` on ``goal_indices``) or when the horizon runs out.
     Collisions are steps whose true state violates an original state constraint. Uses a copy of
-    the problem taken at construction. ``goal_indices`` defaults to ``[0, 1]`` and
-    ``position_indices`` (the planar position) to ``(0, 1)``.
+    the problem taken at construction. ``position_indices`` is the planar position. Defaults:
+    :func:`default_settings` ``("Mpc")``.
     """
 
     def __new__(
@@ -1161,11 +1161,11 @@ class Mpc:
         sigma_w: _ArrayLike,
         goal: _ArrayLike,
         tightening: Optional[Tightening] = None,
-        goal_indices: Sequence[int] = ...,
+        goal_indices: Sequence[int] = [0, 1],
         goal_radius: float = 0.1,
         iterations: int = 10,
         initial_iterations: int = 50,
-        position_indices: tuple[int, int] = ...,
+        position_indices: tuple[int, int] = (0, 1),
         max_iterations: int = 400,
     ) -> Self: ...
     def run_episode(self, seed: int) -> Episode:

@@ -548,8 +548,9 @@ fn qp_name(q: QpMethod) -> &'static str {
     }
 }
 
-/// Solver iterations of [`Mpc`]'s inner solver: the Table I experiments' 400 (`safe_cddp::table`),
-/// more than `Settings::default()`'s 200 because the first solve of an episode starts cold.
+/// `max_iterations` of [`Mpc`]'s inner solver: 400, as the Table I experiments
+/// (`safe_cddp::table`) and this binding before, not `Settings::default()`'s 200. A binding
+/// default, written once here and exported by `default_settings("Mpc")`.
 const MPC_MAX_ITERATIONS: usize = 400;
 
 /// The MPC loop's defaults (`MpcSettings::default()`; its goal has none and is not used).

@@ -4,8 +4,8 @@
 //! any real dtype are accepted; anything numpy cannot turn into float64 is an
 //! `InvalidInputError`, a wrong shape a `ShapeError`, and NaN/inf a `NotFiniteError`.
 
+use ddp_core::dims::{Allocator, DefaultAllocator, Dim, MatrixN, VectorN, U1};
 use ddp_core::error::check_finite;
-use ddp_core::{Matrix, Vector};
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods};
 use pyo3::prelude::*;
@@ -49,16 +49,22 @@ impl Arr {
         Ok(())
     }
 
-    /// A vector of length `N` (shape `(N,)`).
-    pub fn vector<const N: usize>(&self, field: &str) -> CoreResult<Vector<N>> {
-        self.expect_shape(field, &[N])?;
-        Ok(Vector::<N>::from_row_slice(&self.data))
+    /// A vector of `n` entries (shape `(n,)`), `n` a compile-time or run-time dimension.
+    pub fn vector<N: Dim>(&self, field: &str, n: N) -> CoreResult<VectorN<N>>
+    where
+        DefaultAllocator: Allocator<N>,
+    {
+        self.expect_shape(field, &[n.value()])?;
+        Ok(VectorN::from_row_slice_generic(n, U1, &self.data))
     }
 
-    /// An `R x C` matrix (shape `(R, C)`).
-    pub fn matrix<const R: usize, const C: usize>(&self, field: &str) -> CoreResult<Matrix<R, C>> {
-        self.expect_shape(field, &[R, C])?;
-        Ok(Matrix::<R, C>::from_row_slice(&self.data))
+    /// An `r x c` matrix (shape `(r, c)`).
+    pub fn matrix<R: Dim, C: Dim>(&self, field: &str, r: R, c: C) -> CoreResult<MatrixN<R, C>>
+    where
+        DefaultAllocator: Allocator<R, C>,
+    {
+        self.expect_shape(field, &[r.value(), c.value()])?;
+        Ok(MatrixN::from_row_slice_generic(r, c, &self.data))
     }
 
     /// The number of rows of a 2-D array.
@@ -110,10 +116,13 @@ pub fn finite_scalar(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<f64> {
     Ok(a.finite(field)?.data[0])
 }
 
-/// Copies a slice of fixed-size vectors into an `(len, N)` numpy array.
-pub fn vectors_to_numpy<'py, const N: usize>(py: Python<'py>, v: &[Vector<N>]) -> PyResult<Bound<'py, PyAny>> {
+/// Copies a slice of vectors of `n` entries each into an `(len, n)` numpy array.
+pub fn vectors_to_numpy<'py, N: Dim>(py: Python<'py>, v: &[VectorN<N>], n: usize) -> PyResult<Bound<'py, PyAny>>
+where
+    DefaultAllocator: Allocator<N>,
+{
     let data: Vec<f64> = v.iter().flat_map(|x| x.iter().copied()).collect();
-    rows_to_numpy(py, v.len(), N, data)
+    rows_to_numpy(py, v.len(), n, data)
 }
 
 /// An `(rows, cols)` array from C-ordered data.
@@ -139,24 +148,30 @@ pub fn vec_to_numpy(py: Python<'_>, data: Vec<f64>) -> Bound<'_, PyAny> {
     Array1::from_vec(data).into_pyarray(py).into_any()
 }
 
-/// A fixed-size vector as a 1-D array.
-pub fn vector_to_numpy<'py, const N: usize>(py: Python<'py>, v: &Vector<N>) -> Bound<'py, PyAny> {
+/// A vector as a 1-D array.
+pub fn vector_to_numpy<'py, N: Dim>(py: Python<'py>, v: &VectorN<N>) -> Bound<'py, PyAny>
+where
+    DefaultAllocator: Allocator<N>,
+{
     vec_to_numpy(py, v.iter().copied().collect())
 }
 
-/// A fixed-size matrix as a 2-D array.
-pub fn matrix_to_numpy<'py, const R: usize, const C: usize>(
-    py: Python<'py>,
-    m: &Matrix<R, C>,
-) -> PyResult<Bound<'py, PyAny>> {
-    rows_to_numpy(py, R, C, row_major(m))
+/// A matrix as a 2-D array.
+pub fn matrix_to_numpy<'py, R: Dim, C: Dim>(py: Python<'py>, m: &MatrixN<R, C>) -> PyResult<Bound<'py, PyAny>>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    rows_to_numpy(py, m.nrows(), m.ncols(), row_major(m))
 }
 
 /// The entries of `m` in row-major order.
-pub fn row_major<const R: usize, const C: usize>(m: &Matrix<R, C>) -> Vec<f64> {
-    let mut out = Vec::with_capacity(R * C);
-    for i in 0..R {
-        for j in 0..C {
+pub fn row_major<R: Dim, C: Dim>(m: &MatrixN<R, C>) -> Vec<f64>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    let mut out = Vec::with_capacity(m.len());
+    for i in 0..m.nrows() {
+        for j in 0..m.ncols() {
             out.push(m[(i, j)]);
         }
     }

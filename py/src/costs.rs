@@ -5,17 +5,20 @@
 use std::sync::Arc;
 
 use ddp_core::costs::{
-    check_psd, ControlSquared as CoreControlSquared, CostSum as CoreCostSum, ObstacleHinge as CoreObstacleHinge,
+    ControlSquared as CoreControlSquared, CostSum as CoreCostSum, ObstacleHinge as CoreObstacleHinge,
     QuadraticCost as CoreQuadratic, QuadraticTerminal as CoreQuadraticTerminal, SmoothDistance as CoreSmoothDistance,
     StateOnly, TerminalSum as CoreTerminalSum,
 };
+use ddp_core::dims::{
+    check_size, Alloc, Const, DefaultAllocator, Dim, Dyn, MatrixN, VectorN, MAX_CONTROLS, MAX_STATES, U1,
+};
 use ddp_core::penalty::CirclePenalty as CoreCirclePenalty;
-use ddp_core::{Cost as CoreCost, Matrix, TerminalCost as CoreTerminalCost, Vector};
+use ddp_core::{Cost as CoreCost, TerminalCost as CoreTerminalCost};
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 
 use crate::convert::{finite_arr, shape_str, Arr};
-use crate::dims::{nu_for, Dims, Pair};
+use crate::dims::{dims, nu_for, Dispatch, Pair};
 use crate::errors::{invalid, shape, CoreError, CoreResult};
 use crate::models::type_name;
 
@@ -28,12 +31,19 @@ pub struct Weight {
 }
 
 impl Weight {
-    /// Checks squareness, finiteness, symmetry and PSD (through ddp-core's check on a dynamic
-    /// copy), naming `field`.
-    fn new(a: Arr, field: &str) -> CoreResult<Self> {
+    /// Checks squareness, the size (`1 <= n <= limit`), finiteness, symmetry and PSD, naming
+    /// `field`.
+    fn new(a: Arr, field: &str, limit: usize) -> CoreResult<Self> {
         let a = a.finite(field)?;
-        let (n, data) = match a.shape.as_slice() {
-            [n] => {
+        let n = match a.shape.as_slice() {
+            [n] => *n,
+            [n, m] if n == m => *n,
+            _ => return Err(shape(field, shape_str(&a.shape), "(n, n) or its diagonal (n,)")),
+        };
+        // Before the diagonal is expanded to n x n.
+        check_size(&format!("{field}.shape[0]"), n, None, limit)?;
+        let data = match a.shape.as_slice() {
+            [_] => {
                 let mut d = vec![0.0; n * n];
                 for (i, v) in a.data.iter().enumerate() {
                     if *v < 0.0 {
@@ -44,10 +54,9 @@ impl Weight {
                     }
                     d[i * n + i] = *v;
                 }
-                (*n, d)
+                d
             }
-            [n, m] if n == m => (*n, a.data),
-            _ => return Err(shape(field, shape_str(&a.shape), "(n, n) or its diagonal (n,)")),
+            _ => a.data,
         };
         let w = Self { n, data };
         w.check_psd(field)?;
@@ -81,13 +90,19 @@ impl Weight {
         Ok(())
     }
 
-    fn typed<const N: usize>(&self, field: &str) -> CoreResult<Matrix<N, N>> {
-        if self.n != N {
-            return Err(shape(field, shape_str(&[self.n, self.n]), shape_str(&[N, N])));
+    /// The weight as an `n x n` matrix (checked PSD when made; ddp-core checks it again).
+    fn typed<N: Dim>(&self, field: &str, n: N) -> CoreResult<MatrixN<N, N>>
+    where
+        DefaultAllocator: Alloc<N, N>,
+    {
+        if self.n != n.value() {
+            return Err(shape(
+                field,
+                shape_str(&[self.n, self.n]),
+                shape_str(&[n.value(), n.value()]),
+            ));
         }
-        let m = Matrix::<N, N>::from_row_slice(&self.data);
-        check_psd(field, &m)?;
-        Ok(m)
+        Ok(MatrixN::from_row_slice_generic(n, n, &self.data))
     }
 
     fn to_numpy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
@@ -185,19 +200,26 @@ impl CostSpec {
         }
     }
 
-    /// The running cost for `(NX, NU)`; errors name `field` and the parameter.
-    pub fn running<const NX: usize, const NU: usize>(&self, field: &str) -> CoreResult<Arc<dyn CoreCost<NX, NU>>> {
+    /// The running cost for the sizes `s`; errors name `field` and the parameter.
+    pub fn running<NX: StateDim, NU: Dim>(
+        &self,
+        field: &str,
+        s: ddp_core::Dims<NX, NU>,
+    ) -> CoreResult<Arc<dyn CoreCost<NX, NU>>>
+    where
+        DefaultAllocator: Alloc<NX, NU>,
+    {
         if self.state_only() {
-            return Ok(Arc::new(StateOnly(self.terminal::<NX>(field)?)));
+            return Ok(Arc::new(StateOnly(self.terminal(field, s.nx)?)));
         }
         let ctx = |e: CoreError| e.context(field);
         Ok(match self {
             CostSpec::Quadratic { q, r, x_ref, u_ref } => Arc::new(
                 CoreQuadratic::new(
-                    q.typed::<NX>("Q").map_err(ctx)?,
-                    r.typed::<NU>("R").map_err(ctx)?,
-                    opt_vector::<NX>(x_ref, "x_ref").map_err(ctx)?,
-                    opt_vector::<NU>(u_ref, "u_ref").map_err(ctx)?,
+                    q.typed("Q", s.nx).map_err(ctx)?,
+                    r.typed("R", s.nu).map_err(ctx)?,
+                    opt_vector(x_ref, "x_ref", s.nx).map_err(ctx)?,
+                    opt_vector(u_ref, "u_ref", s.nu).map_err(ctx)?,
                 )
                 .map_err(|e| ctx(e.into()))?,
             ),
@@ -207,7 +229,7 @@ impl CostSpec {
             CostSpec::Sum { terms, .. } => {
                 let mut sum = CoreCostSum::<NX, NU>::new();
                 for (i, (w, t)) in terms.iter().enumerate() {
-                    let term = t.running::<NX, NU>(&format!("{field}.terms[{i}]"))?;
+                    let term = t.running(&format!("{field}.terms[{i}]"), s)?;
                     sum.push(*w, term)
                         .map_err(|e| CoreError::from(e).context(&format!("{field}.terms[{i}]")))?;
                 }
@@ -217,40 +239,29 @@ impl CostSpec {
         })
     }
 
-    /// The terminal cost for `NX`; errors name `field` and the parameter.
-    pub fn terminal<const NX: usize>(&self, field: &str) -> CoreResult<Arc<dyn CoreTerminalCost<NX>>> {
+    /// The terminal cost for `nx` states; errors name `field` and the parameter.
+    pub fn terminal<NX: StateDim>(&self, field: &str, nx: NX) -> CoreResult<Arc<dyn CoreTerminalCost<NX>>>
+    where
+        DefaultAllocator: Alloc<NX, NX>,
+    {
         let ctx = |e: CoreError| e.context(field);
         let core = |e: ddp_core::Error| CoreError::from(e).context(field);
         Ok(match self {
             CostSpec::QuadraticTerminal { qf, x_ref } => Arc::new(
                 CoreQuadraticTerminal::new(
-                    qf.typed::<NX>("Qf").map_err(ctx)?,
-                    opt_vector::<NX>(x_ref, "x_ref").map_err(ctx)?,
+                    qf.typed("Qf", nx).map_err(ctx)?,
+                    opt_vector(x_ref, "x_ref", nx).map_err(ctx)?,
                 )
                 .map_err(core)?,
             ),
-            CostSpec::SmoothDistance {
-                target,
-                indices,
-                eps,
-                weight,
-            } => Arc::new(CoreSmoothDistance::<NX>::goal(*target, *indices, *eps, *weight).map_err(core)?),
-            CostSpec::ObstacleHinge {
-                points,
-                margin,
-                indices,
-                weight,
-            } => Arc::new(CoreObstacleHinge::<NX>::new(points.clone(), *margin, *indices, *weight).map_err(core)?),
-            CostSpec::CirclePenalty {
-                circles,
-                indices,
-                weight,
-            } => Arc::new(CoreCirclePenalty::<NX>::new(circles.clone(), *indices, *weight).map_err(core)?),
+            CostSpec::SmoothDistance { .. } | CostSpec::ObstacleHinge { .. } | CostSpec::CirclePenalty { .. } => {
+                NX::position_term(self, field)?
+            }
             CostSpec::Sum { terms, terminal: true } => {
                 let mut sum = CoreTerminalSum::<NX>::new();
                 for (i, (w, t)) in terms.iter().enumerate() {
                     let f = format!("{field}.terms[{i}]");
-                    let term = t.terminal::<NX>(&f)?;
+                    let term = t.terminal(&f, nx)?;
                     sum.push(*w, term).map_err(|e| CoreError::from(e).context(&f))?;
                 }
                 Arc::new(sum)
@@ -269,28 +280,91 @@ impl CostSpec {
     }
 }
 
-fn opt_vector<const N: usize>(v: &Option<Vec<f64>>, field: &str) -> CoreResult<Vector<N>> {
-    match v {
-        None => Ok(Vector::<N>::zeros()),
-        Some(v) if v.len() == N => Ok(Vector::<N>::from_row_slice(v)),
-        Some(v) => Err(shape(field, shape_str(&[v.len()]), shape_str(&[N]))),
+/// A state dimension, with the planar-position terms (`SmoothDistance`, `ObstacleHinge`,
+/// `CirclePenalty`) that ddp-core builds for compile-time sizes only: at a run-time size they are
+/// an error naming the term.
+pub trait StateDim: Dim {
+    /// The position term of `spec` for this state dimension.
+    fn position_term(spec: &CostSpec, field: &str) -> CoreResult<Arc<dyn CoreTerminalCost<Self>>>
+    where
+        DefaultAllocator: Alloc<Self, Self>;
+}
+
+impl<const NX: usize> StateDim for Const<NX> {
+    fn position_term(spec: &CostSpec, field: &str) -> CoreResult<Arc<dyn CoreTerminalCost<Self>>> {
+        let core = |e: ddp_core::Error| CoreError::from(e).context(field);
+        Ok(match spec {
+            CostSpec::SmoothDistance {
+                target,
+                indices,
+                eps,
+                weight,
+            } => Arc::new(CoreSmoothDistance::<NX>::goal(*target, *indices, *eps, *weight).map_err(core)?),
+            CostSpec::ObstacleHinge {
+                points,
+                margin,
+                indices,
+                weight,
+            } => Arc::new(CoreObstacleHinge::<NX>::new(points.clone(), *margin, *indices, *weight).map_err(core)?),
+            CostSpec::CirclePenalty {
+                circles,
+                indices,
+                weight,
+            } => Arc::new(CoreCirclePenalty::<NX>::new(circles.clone(), *indices, *weight).map_err(core)?),
+            other => {
+                return Err(crate::convert::internal(format!(
+                    "{} is not a position term",
+                    other.kind()
+                )))
+            }
+        })
     }
 }
 
-fn running_value<const NX: usize, const NU: usize>(spec: &CostSpec, x: &Arr, u: &Arr) -> CoreResult<f64>
-where
-    Dims: Pair<NX, NU>,
-{
-    let cost = spec.running::<NX, NU>("cost")?;
-    Ok(cost.value(&x.vector::<NX>("x")?, &u.vector::<NU>("u")?))
+impl StateDim for Dyn {
+    fn position_term(spec: &CostSpec, field: &str) -> CoreResult<Arc<dyn CoreTerminalCost<Self>>> {
+        let pairs: Vec<String> = crate::dims::PAIRS.iter().map(|p| p.0.to_string()).collect();
+        Err(invalid(
+            field,
+            format!(
+                "{} is available for the compiled state sizes only ({} states); use QuadraticCost / \
+                 QuadraticTerminal at other sizes",
+                spec.kind(),
+                pairs.join(", ")
+            ),
+        ))
+    }
 }
 
-fn terminal_value<const NX: usize, const NU: usize>(spec: &CostSpec, x: &Arr) -> CoreResult<f64>
+fn opt_vector<N: Dim>(v: &Option<Vec<f64>>, field: &str, n: N) -> CoreResult<VectorN<N>>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<N, N>,
 {
-    let cost = spec.terminal::<NX>("cost")?;
-    Ok(cost.value(&x.vector::<NX>("x")?))
+    match v {
+        None => Ok(VectorN::zeros_generic(n, U1)),
+        Some(v) if v.len() == n.value() => Ok(VectorN::from_row_slice_generic(n, U1, v)),
+        Some(v) => Err(shape(field, shape_str(&[v.len()]), shape_str(&[n.value()]))),
+    }
+}
+
+fn running_value<NX: StateDim, NU: Dim>(spec: &CostSpec, x: &Arr, u: &Arr) -> CoreResult<f64>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
+{
+    let s = dims::<NX, NU>(x.data.len(), u.data.len())?;
+    let cost = spec.running("cost", s)?;
+    Ok(cost.value(&x.vector("x", s.nx)?, &u.vector("u", s.nu)?))
+}
+
+fn terminal_value<NX: StateDim, NU: Dim>(spec: &CostSpec, x: &Arr) -> CoreResult<f64>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
+{
+    let s = dims::<NX, NU>(x.data.len(), nu_for(x.data.len()))?;
+    let cost = spec.terminal("cost", s.nx)?;
+    Ok(cost.value(&x.vector("x", s.nx)?))
 }
 
 /// Base class of every cost term. Not constructible itself.
@@ -305,7 +379,7 @@ pub struct Cost {
 #[pymethods]
 impl Cost {
     /// The value at `(x, u)`; for a state-only term `u` may be omitted. The dimensions are taken
-    /// from `x` and `u` (a state-only term without `u` uses the first compiled pair with `nx`).
+    /// from `x` and `u` (any size; the position terms need a compiled state size).
     #[pyo3(signature = (x, u = None))]
     fn value(&self, x: &Bound<'_, PyAny>, u: Option<&Bound<'_, PyAny>>) -> PyResult<f64> {
         let x = finite_arr(x, "x")?;
@@ -326,8 +400,7 @@ impl Cost {
                 if !self.spec.state_only() {
                     return Err(invalid("u", format!("{} depends on the control: pass u", self.spec.kind())).into());
                 }
-                let nu = nu_for(nx).unwrap_or(0);
-                Ok(with_dims!(nx, nu, terminal_value(&self.spec, &x))?)
+                Ok(with_dims!(nx, nu_for(nx), terminal_value(&self.spec, &x))?)
             }
         }
     }
@@ -417,8 +490,8 @@ impl QuadraticCost {
         x_ref: Option<&Bound<'_, PyAny>>,
         u_ref: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyClassInitializer<Self>> {
-        let q = Weight::new(crate::convert::to_arr(Q, "Q")?, "Q")?;
-        let r = Weight::new(crate::convert::to_arr(R, "R")?, "R")?;
+        let q = Weight::new(crate::convert::to_arr(Q, "Q")?, "Q", MAX_STATES)?;
+        let r = Weight::new(crate::convert::to_arr(R, "R")?, "R", MAX_CONTROLS)?;
         let x_ref = optional_vector(x_ref, "x_ref")?;
         let u_ref = optional_vector(u_ref, "u_ref")?;
         for (name, v, n) in [("x_ref", &x_ref, q.n), ("u_ref", &u_ref, r.n)] {
@@ -485,7 +558,7 @@ impl QuadraticTerminal {
     #[pyo3(signature = (Qf, x_ref = None))]
     #[allow(non_snake_case)]
     fn new(Qf: &Bound<'_, PyAny>, x_ref: Option<&Bound<'_, PyAny>>) -> PyResult<PyClassInitializer<Self>> {
-        let qf = Weight::new(crate::convert::to_arr(Qf, "Qf")?, "Qf")?;
+        let qf = Weight::new(crate::convert::to_arr(Qf, "Qf")?, "Qf", MAX_STATES)?;
         let x_ref = optional_vector(x_ref, "x_ref")?;
         if let Some(v) = &x_ref {
             if v.len() != qf.n {

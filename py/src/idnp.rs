@@ -84,7 +84,7 @@ pub fn idnp_scene(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 #[pyfunction]
 pub fn idnp_configuration<'py>(py: Python<'py>, tcp: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
     let a = finite_arr(tcp, "tcp")?;
-    let z: Vector<2> = a.vector::<2>("tcp")?;
+    let z: Vector<2> = a.vector("tcp", nalgebra::U2)?;
     let z = [z[0], z[1]];
     let scene = Scene::narrow_passage();
     let settings = IdnpSettings::default();

@@ -1,8 +1,9 @@
 //! `ddpkit._ddpkit`: the Python bindings of ddp-core.
 //!
 //! A thin layer: numpy arrays in, numpy arrays out; every error a `ddpkit.DdpError`; the GIL
-//! released during solves. Python sees runtime dimensions; each call dispatches to the
-//! const-generic ddp-core types of one compiled `(nx, nu)` pair ([`dims`]).
+//! released during solves. Python sees run-time dimensions; each call dispatches to ddp-core's
+//! generic types at `Const` dimensions for a compiled `(nx, nu)` pair (the built-in robots' fast
+//! path) or at `Dyn` dimensions for any other size, one generic text serving both ([`dims`]).
 //!
 //! | module | Python |
 //! |---|---|
@@ -35,7 +36,8 @@ pub mod subgoal_model;
 
 use pyo3::prelude::*;
 
-/// The compiled `(nx, nu)` pairs, as a list of tuples.
+/// The compiled `(nx, nu)` pairs, as a list of tuples: the fixed-size fast path (and the sizes
+/// Safe-CDDP supports). Every other size works too, at run-time sizes.
 #[pyfunction]
 fn supported_dimensions() -> Vec<(usize, usize)> {
     dims::PAIRS.to_vec()

@@ -2,14 +2,14 @@
 
 use std::sync::Arc;
 
+use ddp_core::dims::{check_size, Alloc, DefaultAllocator, Dim, MAX_CONTROLS, MAX_STATES};
 use ddp_core::linear::LinearDynamics as CoreLinear;
 use ddp_core::models;
-use ddp_core::{Matrix, Vector};
 use pyo3::prelude::*;
 
 use crate::convert::{finite_arr, matrix_to_numpy, shape_str, vector_to_numpy, Arr};
-use crate::dims::{internal_mismatch, AnyDynamics, Dims, Pair};
-use crate::errors::{invalid, shape, CoreResult};
+use crate::dims::{dims, dynamics_of, AnyDynamics, Dispatch, Pair};
+use crate::errors::{invalid, shape, CoreError, CoreResult};
 
 /// Base class of every dynamics model: a discrete map `x+ = f(x, u)` with `nx` states and `nu`
 /// controls. Not constructible itself; use a built-in model or `LinearDynamics`.
@@ -21,61 +21,58 @@ pub struct Dynamics {
 }
 
 impl Dynamics {
-    /// Wraps a model of a compiled pair.
-    fn of<const NX: usize, const NU: usize>(model: impl ddp_core::Dynamics<NX, NU> + 'static) -> Self
+    /// Wraps a model; its sizes are those it reports (a compiled pair for the built-in models).
+    fn of<NX: Dim, NU: Dim>(model: impl ddp_core::Dynamics<NX, NU> + 'static) -> CoreResult<Self>
     where
-        Dims: Pair<NX, NU>,
+        DefaultAllocator: Alloc<NX, NU>,
+        Dispatch: Pair<NX, NU>,
     {
-        Self {
-            inner: <Dims as Pair<NX, NU>>::wrap_dynamics(Arc::new(model)),
-            nx: NX,
-            nu: NU,
-        }
-    }
-
-    /// `x` and `u` as typed vectors, checked against the model's dimensions.
-    fn args<const NX: usize, const NU: usize>(x: &Arr, u: &Arr) -> CoreResult<(Vector<NX>, Vector<NU>)> {
-        Ok((x.vector::<NX>("x")?, u.vector::<NU>("u")?))
+        let (Some(nx), Some(nu)) = model.sizes() else {
+            return Err(crate::dims::internal_mismatch("a model without sizes"));
+        };
+        Ok(Self {
+            inner: <Dispatch as Pair<NX, NU>>::wrap_dynamics(Arc::new(model)),
+            nx,
+            nu,
+        })
     }
 }
 
-fn step_impl<'py, const NX: usize, const NU: usize>(
-    py: Python<'py>,
-    d: &AnyDynamics,
-    x: &Arr,
-    u: &Arr,
-) -> PyResult<Bound<'py, PyAny>>
+fn step_impl<'py, NX: Dim, NU: Dim>(py: Python<'py>, d: &Dynamics, x: &Arr, u: &Arr) -> PyResult<Bound<'py, PyAny>>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let model = <Dims as Pair<NX, NU>>::dynamics(d).ok_or_else(|| internal_mismatch("model"))?;
-    let (x, u) = Dynamics::args::<NX, NU>(x, u)?;
+    let model = dynamics_of::<NX, NU>(&d.inner)?;
+    let s = dims::<NX, NU>(d.nx, d.nu)?;
+    let (x, u) = (x.vector("x", s.nx)?, u.vector("u", s.nu)?);
     Ok(vector_to_numpy(py, &model.step(&x, &u)))
 }
 
-fn jacobians_impl<'py, const NX: usize, const NU: usize>(
+fn jacobians_impl<'py, NX: Dim, NU: Dim>(
     py: Python<'py>,
-    d: &AnyDynamics,
+    d: &Dynamics,
     x: &Arr,
     u: &Arr,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let model = <Dims as Pair<NX, NU>>::dynamics(d).ok_or_else(|| internal_mismatch("model"))?;
-    let (x, u) = Dynamics::args::<NX, NU>(x, u)?;
-    let mut fx = Matrix::<NX, NX>::zeros();
-    let mut fu = Matrix::<NX, NU>::zeros();
+    let model = dynamics_of::<NX, NU>(&d.inner)?;
+    let s = dims::<NX, NU>(d.nx, d.nu)?;
+    let (x, u) = (x.vector("x", s.nx)?, u.vector("u", s.nu)?);
+    let (mut fx, mut fu) = (s.xx_zeros(), s.xu_zeros());
     model.jacobians(&x, &u, &mut fx, &mut fu);
     Ok((matrix_to_numpy(py, &fx)?, matrix_to_numpy(py, &fu)?))
 }
 
-fn has_second_order_impl<const NX: usize, const NU: usize>(d: &AnyDynamics) -> PyResult<bool>
+fn has_second_order_impl<NX: Dim, NU: Dim>(d: &AnyDynamics) -> PyResult<bool>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let model = <Dims as Pair<NX, NU>>::dynamics(d).ok_or_else(|| internal_mismatch("model"))?;
-    Ok(model.has_second_order())
+    Ok(dynamics_of::<NX, NU>(d)?.has_second_order())
 }
 
 #[pymethods]
@@ -101,7 +98,7 @@ impl Dynamics {
     /// The next state `f(x, u)`, shape `(nx,)`.
     fn step<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let (x, u) = (finite_arr(x, "x")?, finite_arr(u, "u")?);
-        with_dims!(self.nx, self.nu, step_impl(py, &self.inner, &x, &u))
+        with_dims!(self.nx, self.nu, step_impl(py, self, &x, &u))
     }
 
     /// The Jacobians `(fx, fu)` of `step` at `(x, u)`, shapes `(nx, nx)` and `(nx, nu)`.
@@ -112,7 +109,7 @@ impl Dynamics {
         u: &Bound<'py, PyAny>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let (x, u) = (finite_arr(x, "x")?, finite_arr(u, "u")?);
-        with_dims!(self.nx, self.nu, jacobians_impl(py, &self.inner, &x, &u))
+        with_dims!(self.nx, self.nu, jacobians_impl(py, self, &x, &u))
     }
 }
 
@@ -128,8 +125,8 @@ impl Unicycle {
     #[new]
     #[pyo3(signature = (dt = 0.1))]
     fn new(dt: f64) -> PyResult<PyClassInitializer<Self>> {
-        let model = models::Unicycle::new(dt).map_err(crate::errors::CoreError)?;
-        Ok(PyClassInitializer::from(Dynamics::of(model)).add_subclass(Self { model }))
+        let model = models::Unicycle::new(dt).map_err(CoreError)?;
+        Ok(PyClassInitializer::from(Dynamics::of(model)?).add_subclass(Self { model }))
     }
 
     /// The time step (s).
@@ -154,8 +151,8 @@ impl Car {
     #[new]
     #[pyo3(signature = (dt = 0.05))]
     fn new(dt: f64) -> PyResult<PyClassInitializer<Self>> {
-        let model = models::Car::new(dt).map_err(crate::errors::CoreError)?;
-        Ok(PyClassInitializer::from(Dynamics::of(model)).add_subclass(Self { model }))
+        let model = models::Car::new(dt).map_err(CoreError)?;
+        Ok(PyClassInitializer::from(Dynamics::of(model)?).add_subclass(Self { model }))
     }
 
     /// The time step (s).
@@ -180,8 +177,8 @@ impl DoubleIntegrator2D {
     #[new]
     #[pyo3(signature = (dt = 0.05))]
     fn new(dt: f64) -> PyResult<PyClassInitializer<Self>> {
-        let model = models::DoubleIntegrator2D::new(dt).map_err(crate::errors::CoreError)?;
-        Ok(PyClassInitializer::from(Dynamics::of(model)).add_subclass(Self { model }))
+        let model = models::DoubleIntegrator2D::new(dt).map_err(CoreError)?;
+        Ok(PyClassInitializer::from(Dynamics::of(model)?).add_subclass(Self { model }))
     }
 
     /// The time step (s).
@@ -206,8 +203,8 @@ impl DifferentialDrive {
     #[new]
     #[pyo3(signature = (dt = 0.1, track_width = 0.16))]
     fn new(dt: f64, track_width: f64) -> PyResult<PyClassInitializer<Self>> {
-        let model = models::DifferentialDrive::new(dt, track_width).map_err(crate::errors::CoreError)?;
-        Ok(PyClassInitializer::from(Dynamics::of(model)).add_subclass(Self { model }))
+        let model = models::DifferentialDrive::new(dt, track_width).map_err(CoreError)?;
+        Ok(PyClassInitializer::from(Dynamics::of(model)?).add_subclass(Self { model }))
     }
 
     /// The time step (s).
@@ -243,9 +240,9 @@ impl Quadrotor {
     #[pyo3(signature = (dt = 0.05, mass = 0.468, inertia = (4.856e-3, 4.856e-3, 8.801e-3), gravity = 9.81))]
     #[pyo3(text_signature = "(dt=0.05, mass=0.468, inertia=(0.004856, 0.004856, 0.008801), gravity=9.81)")]
     fn new(dt: f64, mass: f64, inertia: (f64, f64, f64), gravity: f64) -> PyResult<PyClassInitializer<Self>> {
-        let model = models::Quadrotor::with_params(dt, mass, [inertia.0, inertia.1, inertia.2], gravity)
-            .map_err(crate::errors::CoreError)?;
-        Ok(PyClassInitializer::from(Dynamics::of(model)).add_subclass(Self { model }))
+        let model =
+            models::Quadrotor::with_params(dt, mass, [inertia.0, inertia.1, inertia.2], gravity).map_err(CoreError)?;
+        Ok(PyClassInitializer::from(Dynamics::of(model)?).add_subclass(Self { model }))
     }
 
     /// The time step (s).
@@ -333,8 +330,8 @@ impl ArmBase {
             link_masses: pair_or(link_masses, d.link_masses),
             link_inertias: pair_or(link_inertias, d.link_inertias),
         };
-        let model = models::ArmBase::from_params(params).map_err(crate::errors::CoreError)?;
-        Ok(PyClassInitializer::from(Dynamics::of(model)).add_subclass(Self { model }))
+        let model = models::ArmBase::from_params(params).map_err(CoreError)?;
+        Ok(PyClassInitializer::from(Dynamics::of(model)?).add_subclass(Self { model }))
     }
 
     /// The time step (s).
@@ -361,7 +358,7 @@ impl ArmBase {
 
     /// Position of the tool centre point (the end of link 2) in the world frame, shape `(2,)`.
     fn tcp_position<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let x = finite_arr(x, "x")?.vector::<10>("x")?;
+        let x = finite_arr(x, "x")?.vector("x", nalgebra::U10)?;
         let [a, b] = self.model.tcp_position(&x);
         Ok(crate::convert::vec_to_numpy(py, vec![a, b]))
     }
@@ -379,16 +376,22 @@ pub struct LinearDynamics {
     c: Vec<f64>,
 }
 
-fn make_linear<const NX: usize, const NU: usize>(a: &Arr, b: &Arr, c: &[f64]) -> CoreResult<Dynamics>
+fn make_linear<NX: Dim, NU: Dim>(a: &Arr, b: &Arr, c: &[f64]) -> CoreResult<Dynamics>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
+    let s = dims::<NX, NU>(a.rows(), b.shape[1])?;
     let model = CoreLinear::new(
-        a.matrix::<NX, NX>("A")?,
-        b.matrix::<NX, NU>("B")?,
-        Vector::<NX>::from_row_slice(c),
+        a.matrix("A", s.nx, s.nx)?,
+        b.matrix("B", s.nx, s.nu)?,
+        Arr {
+            shape: vec![c.len()],
+            data: c.to_vec(),
+        }
+        .vector("c", s.nx)?,
     )?;
-    Ok(Dynamics::of(model))
+    Dynamics::of(model)
 }
 
 #[pymethods]
@@ -404,13 +407,15 @@ impl LinearDynamics {
         let a = finite_arr(A, "A")?;
         let b = finite_arr(B, "B")?;
         let nx = match a.shape.as_slice() {
-            [n, m] if n == m && *n > 0 => *n,
-            _ => return Err(shape("A", shape_str(&a.shape), "(nx, nx) with nx >= 1").into()),
+            [n, m] if n == m => *n,
+            _ => return Err(shape("A", shape_str(&a.shape), "(nx, nx)").into()),
         };
+        check_size("A.shape[0]", nx, None, MAX_STATES).map_err(CoreError)?;
         let nu = match b.shape.as_slice() {
-            [n, m] if *n == nx && *m > 0 => *m,
-            _ => return Err(shape("B", shape_str(&b.shape), format!("({nx}, nu) with nu >= 1")).into()),
+            [n, m] if *n == nx => *m,
+            _ => return Err(shape("B", shape_str(&b.shape), format!("({nx}, nu) (as many rows as A)")).into()),
         };
+        check_size("B.shape[1]", nu, None, MAX_CONTROLS).map_err(CoreError)?;
         let c = match c {
             Some(c) => {
                 let c = finite_arr(c, "c")?;

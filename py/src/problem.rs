@@ -3,13 +3,14 @@
 use std::collections::HashMap;
 use std::sync::{Arc, RwLock};
 
-use ddp_core::{ControlBounds, Knot, Problem as CoreProblem, Vector};
+use ddp_core::dims::{Alloc, DefaultAllocator, Dim, VectorN, U1};
+use ddp_core::{ControlBounds, Knot, Problem as CoreProblem};
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 
 use crate::convert::{check_allocation, finite_arr, shape_str, to_arr, vectors_to_numpy, Arr};
-use crate::costs::{extract_cost, CostSpec};
-use crate::dims::{internal_mismatch, AnyDynamics, AnyProblem, Dims, Pair};
+use crate::costs::{extract_cost, CostSpec, StateDim};
+use crate::dims::{dims, dynamics_of, problem_mut_of, problem_of, AnyDynamics, AnyProblem, Dispatch, Pair};
 use crate::errors::{invalid, shape, CoreError, CoreResult};
 use crate::models::extract_dynamics;
 
@@ -60,20 +61,22 @@ struct ProblemArgs {
     u_max: Option<Vec<f64>>,
 }
 
-fn build<const NX: usize, const NU: usize>(args: &ProblemArgs) -> CoreResult<AnyProblem>
+fn build<NX: StateDim, NU: Dim>(args: &ProblemArgs, nx: usize, nu: usize) -> CoreResult<AnyProblem>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let x0 = args.x0.vector::<NX>("x0")?;
+    let s = dims::<NX, NU>(nx, nu)?;
+    let x0 = args.x0.vector("x0", s.nx)?;
     // Typed costs are built once per distinct Python cost object.
     let mut cache: HashMap<*const CostSpec, Arc<dyn ddp_core::Cost<NX, NU>>> = HashMap::new();
     let mut knots = Vec::with_capacity(args.dynamics.len());
     for (k, (d, c)) in args.dynamics.iter().zip(&args.running).enumerate() {
-        let dynamics = <Dims as Pair<NX, NU>>::dynamics(d).ok_or_else(|| internal_mismatch("dynamics"))?;
+        let dynamics = dynamics_of::<NX, NU>(d)?;
         let cost = match cache.get(&Arc::as_ptr(c)) {
             Some(c) => c.clone(),
             None => {
-                let typed = c.running::<NX, NU>(&args.running_fields[k])?;
+                let typed = c.running(&args.running_fields[k], s)?;
                 cache.insert(Arc::as_ptr(c), typed.clone());
                 typed
             }
@@ -83,80 +86,88 @@ where
             cost,
         });
     }
-    let terminal = args.terminal.terminal::<NX>("terminal_cost")?;
+    let terminal = args.terminal.terminal("terminal_cost", s.nx)?;
     let mut problem = CoreProblem::from_knots(x0, knots, terminal)?;
     if args.u_min.is_some() || args.u_max.is_some() {
-        let lower = args
-            .u_min
-            .as_ref()
-            .map(|v| Vector::<NU>::from_row_slice(v))
-            .unwrap_or_else(|| Vector::<NU>::repeat(f64::NEG_INFINITY));
-        let upper = args
-            .u_max
-            .as_ref()
-            .map(|v| Vector::<NU>::from_row_slice(v))
-            .unwrap_or_else(|| Vector::<NU>::repeat(f64::INFINITY));
-        problem.set_control_bounds(Some(ControlBounds::new(lower, upper)?));
+        let side = |v: &Option<Vec<f64>>, default: f64| match v {
+            Some(v) => VectorN::<NU>::from_row_slice_generic(s.nu, U1, v),
+            None => VectorN::<NU>::from_element_generic(s.nu, U1, default),
+        };
+        let lower = side(&args.u_min, f64::NEG_INFINITY);
+        let upper = side(&args.u_max, f64::INFINITY);
+        problem.set_control_bounds(Some(ControlBounds::new(lower, upper)?))?;
     }
-    Ok(<Dims as Pair<NX, NU>>::wrap_problem(problem))
+    Ok(<Dispatch as Pair<NX, NU>>::wrap_problem(problem))
 }
 
-fn set_x0_impl<const NX: usize, const NU: usize>(p: &mut AnyProblem, x0: &Arr) -> CoreResult<()>
+fn set_x0_impl<NX: Dim, NU: Dim>(p: &mut AnyProblem, x0: &Arr) -> CoreResult<()>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let p = <Dims as Pair<NX, NU>>::problem_mut(p).ok_or_else(|| internal_mismatch("problem"))?;
-    p.set_x0(x0.vector::<NX>("x0")?)?;
+    let p = problem_mut_of::<NX, NU>(p)?;
+    p.set_x0(x0.vector("x0", p.dims().nx)?)?;
     Ok(())
 }
 
-fn x0_impl<const NX: usize, const NU: usize>(p: &AnyProblem) -> CoreResult<Vec<f64>>
+fn x0_impl<NX: Dim, NU: Dim>(p: &AnyProblem) -> CoreResult<Vec<f64>>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
-    Ok(p.x0().iter().copied().collect())
+    Ok(problem_of::<NX, NU>(p)?.x0().iter().copied().collect())
 }
 
-fn bounds_impl<const NX: usize, const NU: usize>(p: &AnyProblem) -> CoreResult<Option<(Vec<f64>, Vec<f64>)>>
+fn bounds_impl<NX: Dim, NU: Dim>(p: &AnyProblem) -> CoreResult<Option<(Vec<f64>, Vec<f64>)>>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
-    Ok(p.bounds()
+    Ok(problem_of::<NX, NU>(p)?
+        .bounds()
         .map(|b| (b.lower.iter().copied().collect(), b.upper.iter().copied().collect())))
 }
 
-/// `us` as typed controls, shape `(N, NU)`.
-pub fn controls<const NU: usize>(us: &Arr, field: &str, n: usize) -> CoreResult<Vec<Vector<NU>>> {
-    us.expect_shape(field, &[n, NU])?;
-    Ok(us.data.chunks_exact(NU).map(Vector::<NU>::from_row_slice).collect())
+/// `us` as controls of `nu` entries, shape `(n, nu)`.
+pub fn controls<NU: Dim>(us: &Arr, field: &str, n: usize, nu: NU) -> CoreResult<Vec<VectorN<NU>>>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    us.expect_shape(field, &[n, nu.value()])?;
+    Ok(us
+        .data
+        .chunks_exact(nu.value())
+        .map(|c| VectorN::from_row_slice_generic(nu, U1, c))
+        .collect())
 }
 
-fn rollout_impl<'py, const NX: usize, const NU: usize>(
-    py: Python<'py>,
-    p: &AnyProblem,
-    us: &Arr,
-) -> PyResult<Bound<'py, PyAny>>
+fn rollout_impl<'py, NX: Dim, NU: Dim>(py: Python<'py>, p: &AnyProblem, us: &Arr) -> PyResult<Bound<'py, PyAny>>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
-    let us = controls::<NU>(us, "us", p.horizon())?;
-    let mut xs = vec![Vector::<NX>::zeros(); p.horizon() + 1];
+    let p = problem_of::<NX, NU>(p)?;
+    let s = p.dims();
+    let us = controls(us, "us", p.horizon(), s.nu)?;
+    let mut xs = vec![s.x_zeros(); p.horizon() + 1];
     p.rollout(&us, &mut xs).map_err(CoreError)?;
-    vectors_to_numpy(py, &xs)
+    vectors_to_numpy(py, &xs, s.nx())
 }
 
-fn cost_impl<const NX: usize, const NU: usize>(p: &AnyProblem, xs: &Arr, us: &Arr) -> CoreResult<f64>
+fn cost_impl<NX: Dim, NU: Dim>(p: &AnyProblem, xs: &Arr, us: &Arr) -> CoreResult<f64>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
-    let n = p.horizon();
-    let us = controls::<NU>(us, "us", n)?;
-    xs.expect_shape("xs", &[n + 1, NX])?;
-    let xs: Vec<Vector<NX>> = xs.data.chunks_exact(NX).map(Vector::<NX>::from_row_slice).collect();
+    let p = problem_of::<NX, NU>(p)?;
+    let (n, s) = (p.horizon(), p.dims());
+    let us = controls(us, "us", n, s.nu)?;
+    xs.expect_shape("xs", &[n + 1, s.nx()])?;
+    let xs: Vec<VectorN<NX>> = xs
+        .data
+        .chunks_exact(s.nx())
+        .map(|c| VectorN::from_row_slice_generic(s.nx, U1, c))
+        .collect();
     Ok(p.cost(&xs, &us)?)
 }
 
@@ -201,7 +212,11 @@ impl Problem {
         let horizon =
             usize::try_from(horizon).map_err(|_| invalid("horizon", format!("must be at least 1, got {horizon}")))?;
         // The knot lists below hold a model, a cost and a typed knot per step.
-        check_allocation("horizon", horizon, 4 * std::mem::size_of::<Knot<12, 4>>())?;
+        check_allocation(
+            "horizon",
+            horizon,
+            4 * std::mem::size_of::<Knot<ddp_core::dims::U12, ddp_core::dims::U4>>(),
+        )?;
 
         // Dynamics: one model, or one per knot.
         let (dynamics, nx, nu) = match as_sequence(dynamics) {
@@ -275,7 +290,7 @@ impl Problem {
             u_min: bounds_arg(u_min, "u_min", nu)?,
             u_max: bounds_arg(u_max, "u_max", nu)?,
         };
-        let problem = with_dims!(nx, nu, build(&args))?;
+        let problem = with_dims!(nx, nu, build(&args, nx, nu))?;
         Ok(Self {
             inner: Arc::new(RwLock::new(problem)),
             nx,

@@ -13,8 +13,10 @@
 
 use std::sync::{Arc, RwLock};
 
-use ddp_core::{Matrix, Method, Vector};
+use ddp_core::dims::Const;
+use ddp_core::{Matrix, Vector};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use safe_cddp::constraints::{Circle as CoreCircle, ControlBox as CoreControlBox, ConvexPolygon as CorePolygon};
 use safe_cddp::constraints::{Cylinder as CoreCylinder, StateBox as CoreStateBox};
 use safe_cddp::mpc::{Mpc as CoreMpc, MpcSettings};
@@ -24,10 +26,11 @@ use safe_cddp::{
 };
 
 use crate::convert::{finite_arr, row_major, rows_to_numpy, shape_str, stack_to_numpy, Arr};
-use crate::dims::{internal_mismatch, AnyProblem, Dims, Pair};
+use crate::dims::{internal_mismatch, problem_of, AnyProblem, Dispatch, Pair};
 use crate::errors::{invalid, shape, CoreResult};
 use crate::models::type_name;
 use crate::problem::{controls, Problem};
+use crate::solver::{method_name, parse_method};
 
 // ------------------------------------------------------------------------------------------------
 // Constraints
@@ -397,18 +400,18 @@ pub struct Tightening {
 
 impl Tightening {
     fn build<const NX: usize, const NU: usize>(&self) -> CoreResult<CoreTightening<NX, NU>> {
-        let sigma_w = self.sigma_w.matrix::<NX, NX>("tightening.sigma_w")?;
+        let sigma_w = self.sigma_w.matrix("tightening.sigma_w", Const::<NX>, Const::<NX>)?;
         let gains = match &self.gains {
             GainSpec::ClosedLoop => Gains::ClosedLoop,
             GainSpec::ActiveSet => Gains::ActiveSet,
             GainSpec::OpenLoop => Gains::OpenLoop,
-            GainSpec::Fixed(k) => Gains::Fixed(k.matrix::<NU, NX>("tightening.gains")?),
+            GainSpec::Fixed(k) => Gains::Fixed(k.matrix("tightening.gains", Const::<NU>, Const::<NX>)?),
         };
         let mut t = CoreTightening::new(self.beta, sigma_w)?
             .with_gains(gains)?
             .with_update_every(self.update_every)?;
         if let Some(s0) = &self.sigma_0 {
-            t = t.with_initial_covariance(s0.matrix::<NX, NX>("tightening.sigma_0")?)?;
+            t = t.with_initial_covariance(s0.matrix("tightening.sigma_0", Const::<NX>, Const::<NX>)?)?;
         }
         Ok(t)
     }
@@ -537,6 +540,58 @@ fn check_tightening(beta: f64, sigma: &Arr) -> CoreResult<()> {
 // ------------------------------------------------------------------------------------------------
 // Settings
 
+/// The Python name of a [`QpMethod`].
+fn qp_name(q: QpMethod) -> &'static str {
+    match q {
+        QpMethod::Fast => "fast",
+        QpMethod::Clarabel => "clarabel",
+    }
+}
+
+/// `max_iterations` of [`Mpc`]'s inner solver: 400, as the Table I experiments
+/// (`safe_cddp::table`) and this binding before, not `Settings::default()`'s 200. A binding
+/// default, written once here and exported by `default_settings("Mpc")`.
+const MPC_MAX_ITERATIONS: usize = 400;
+
+/// The MPC loop's defaults (`MpcSettings::default()`; its goal has none and is not used).
+fn mpc_default() -> MpcSettings<1> {
+    MpcSettings::default()
+}
+
+fn default_goal_indices() -> Vec<i64> {
+    mpc_default().goal_indices.iter().map(|&i| i as i64).collect()
+}
+
+fn default_position_indices() -> (i64, i64) {
+    let [a, b] = mpc_default().position_indices;
+    (a as i64, b as i64)
+}
+
+/// The defaults of `SafeCddpSolver`'s keyword arguments (`safe_cddp::Settings::default()`).
+pub(crate) fn safe_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let s = Settings::default();
+    let d = PyDict::new(py);
+    d.set_item("method", method_name(s.method))?;
+    d.set_item("max_iterations", s.max_iterations)?;
+    d.set_item("constraint_tolerance", s.constraint_tolerance)?;
+    d.set_item("qp_method", qp_name(s.qp_method))?;
+    d.set_item("warm_up", s.al_warm_start)?;
+    Ok(d)
+}
+
+/// The defaults of `Mpc`'s keyword arguments (`MpcSettings::default()`, [`MPC_MAX_ITERATIONS`]).
+pub(crate) fn mpc_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let m = mpc_default();
+    let d = PyDict::new(py);
+    d.set_item("goal_indices", default_goal_indices())?;
+    d.set_item("goal_radius", m.goal_radius)?;
+    d.set_item("iterations", m.iterations)?;
+    d.set_item("initial_iterations", m.initial_iterations)?;
+    d.set_item("position_indices", default_position_indices())?;
+    d.set_item("max_iterations", MPC_MAX_ITERATIONS)?;
+    Ok(d)
+}
+
 fn settings_from(
     method: &str,
     max_iterations: i64,
@@ -544,11 +599,7 @@ fn settings_from(
     qp_method: &str,
     warm_up: bool,
 ) -> CoreResult<Settings> {
-    let method = match method.to_ascii_lowercase().as_str() {
-        "ilqr" => Method::Ilqr,
-        "ddp" => Method::Ddp,
-        other => return Err(invalid("method", format!("must be 'ilqr' or 'ddp', got '{other}'"))),
-    };
+    let method = parse_method(method)?;
     let qp_method = match qp_method.to_ascii_lowercase().as_str() {
         "fast" => QpMethod::Fast,
         "clarabel" => QpMethod::Clarabel,
@@ -591,7 +642,7 @@ macro_rules! any_safe {
         }
         $(
             #[allow(unreachable_patterns)]
-            impl SafePair<$nx, $nu> for Dims {
+            impl SafePair<$nx, $nu> for Dispatch {
                 fn solver(s: &mut AnySafe) -> Option<&mut CoreSolver<$nx, $nu>> {
                     match s { AnySafe::$var(x) => Some(&mut **x), _ => None }
                 }
@@ -605,8 +656,9 @@ macro_rules! any_safe {
     };
 }
 
-// The pairs of `crate::dims` (with_dims! dispatches to them).
-any_safe!(D3x2 = (3, 2), D4x2 = (4, 2), D12x4 = (12, 4), D10x5 = (10, 5));
+// Safe-CDDP is const-generic (for now): one variant per compiled pair of `crate::dims`, which
+// `with_compiled!` dispatches to.
+compiled_pairs!(any_safe);
 
 fn typed_constraints<const NX: usize, const NU: usize>(
     specs: &[Arc<Spec>],
@@ -625,14 +677,14 @@ fn new_safe<const NX: usize, const NU: usize>(
     settings: Settings,
 ) -> CoreResult<AnySafe>
 where
-    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
 {
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    let p = problem_of::<Const<NX>, Const<NU>>(p)?;
     let per_knot = 40 * std::mem::size_of::<Matrix<NX, NX>>();
     crate::convert::check_allocation("horizon", p.horizon() + 1, per_knot)?;
     let mut s = CoreSolver::new(p, typed_constraints::<NX, NU>(specs)?, settings)?;
     s.set_tightening(tightening.map(|t| t.build::<NX, NU>()).transpose()?);
-    Ok(<Dims as SafePair<NX, NU>>::wrap(s))
+    Ok(<Dispatch as SafePair<NX, NU>>::wrap(s))
 }
 
 /// Plain-data results copied out of the workspace without the GIL.
@@ -672,12 +724,12 @@ fn solve_safe<const NX: usize, const NU: usize>(
     warm_start: bool,
 ) -> CoreResult<Out>
 where
-    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
 {
-    let s = <Dims as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    let s = <Dispatch as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
+    let p = problem_of::<Const<NX>, Const<NU>>(p)?;
     match us0 {
-        Some(us) => s.set_controls(&controls::<NU>(us, "us0", s.horizon())?)?,
+        Some(us) => s.set_controls(&controls(us, "us0", s.horizon(), Const::<NU>)?)?,
         None if !warm_start => s.reset(),
         None => {}
     }
@@ -687,18 +739,18 @@ where
 
 fn tighten_safe<const NX: usize, const NU: usize>(s: &mut AnySafe, p: &AnyProblem) -> CoreResult<f64>
 where
-    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
 {
-    let s = <Dims as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    let s = <Dispatch as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
+    let p = problem_of::<Const<NX>, Const<NU>>(p)?;
     Ok(s.tighten(p)?)
 }
 
 fn edit_safe<const NX: usize, const NU: usize>(s: &mut AnySafe, what: Edit) -> CoreResult<usize>
 where
-    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
 {
-    let s = <Dims as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
+    let s = <Dispatch as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
     match what {
         Edit::Shift => s.shift(),
         Edit::Reset => s.reset(),
@@ -730,8 +782,18 @@ pub struct SafeCddpSolver {
 #[pymethods]
 impl SafeCddpSolver {
     #[new]
-    #[pyo3(signature = (problem, constraints, tightening = None, method = "ilqr", max_iterations = 200,
-                        constraint_tolerance = 1e-8, qp_method = "fast", warm_up = true))]
+    #[pyo3(signature = (problem, constraints, tightening = None,
+                        method = method_name(Settings::default().method),
+                        max_iterations = Settings::default().max_iterations as i64,
+                        constraint_tolerance = Settings::default().constraint_tolerance,
+                        qp_method = qp_name(Settings::default().qp_method),
+                        warm_up = Settings::default().al_warm_start))]
+    // The defaults as Python sees them; tests compare them and the stub with `default_settings`.
+    #[pyo3(
+        text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
+                             constraint_tolerance=1e-8, qp_method='fast', warm_up=True)"
+    )]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         problem: Bound<'_, Problem>,
         constraints: &Bound<'_, PyAny>,
@@ -748,7 +810,9 @@ impl SafeCddpSolver {
         let (nx, nu) = (p.nx, p.nu);
         let shared = p.inner.clone();
         let t = tightening.as_ref().map(|t| t.get());
-        let inner = Problem::read(&shared, |q| with_dims!(nx, nu, new_safe(q, &specs, t, settings)))?;
+        let inner = Problem::read(&shared, |q| {
+            with_compiled!("Safe-CDDP", nx, nu, new_safe(q, &specs, t, settings))
+        })?;
         Ok(Self { shared, inner, nx, nu })
     }
 
@@ -767,7 +831,7 @@ impl SafeCddpSolver {
         let inner = &mut self.inner;
         let out = py.detach(|| -> CoreResult<Out> {
             Problem::read(shared, |p| {
-                with_dims!(nx, nu, solve_safe(inner, p, us0.as_ref(), warm_start))
+                with_compiled!("Safe-CDDP", nx, nu, solve_safe(inner, p, us0.as_ref(), warm_start))
             })
         })?;
         SafeSolution::from_out(py, out, nx, nu)
@@ -779,32 +843,44 @@ impl SafeCddpSolver {
         let (nx, nu) = (self.nx, self.nu);
         let shared = &self.shared;
         let inner = &mut self.inner;
-        Ok(py.detach(|| -> CoreResult<f64> { Problem::read(shared, |p| with_dims!(nx, nu, tighten_safe(inner, p))) })?)
+        Ok(py.detach(|| -> CoreResult<f64> {
+            Problem::read(shared, |p| with_compiled!("Safe-CDDP", nx, nu, tighten_safe(inner, p)))
+        })?)
     }
 
     /// Receding horizon: drops knot 0 of the solution (controls, gains, multipliers, margins).
     fn shift(&mut self) -> PyResult<()> {
-        with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Shift))?;
+        with_compiled!("Safe-CDDP", self.nx, self.nu, edit_safe(&mut self.inner, Edit::Shift))?;
         Ok(())
     }
 
     /// A cold start: zeros the initial guess, gains, multipliers and margins.
     fn reset(&mut self) -> PyResult<()> {
-        with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Reset))?;
+        with_compiled!("Safe-CDDP", self.nx, self.nu, edit_safe(&mut self.inner, Edit::Reset))?;
         Ok(())
     }
 
     /// Shortens (or restores) the active horizon ``1 <= n <= N`` (shrinking-horizon MPC).
     fn set_horizon(&mut self, n: i64) -> PyResult<()> {
         let n = usize::try_from(n).map_err(|_| invalid("horizon", format!("must be at least 1, got {n}")))?;
-        with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Horizon(n)))?;
+        with_compiled!(
+            "Safe-CDDP",
+            self.nx,
+            self.nu,
+            edit_safe(&mut self.inner, Edit::Horizon(n))
+        )?;
         Ok(())
     }
 
     /// The active horizon.
     #[getter]
     fn horizon(&mut self) -> PyResult<usize> {
-        Ok(with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Get))?)
+        Ok(with_compiled!(
+            "Safe-CDDP",
+            self.nx,
+            self.nu,
+            edit_safe(&mut self.inner, Edit::Get)
+        )?)
     }
 
     /// Number of states.
@@ -939,15 +1015,15 @@ fn new_mpc<const NX: usize, const NU: usize>(
     a: &MpcArgs,
 ) -> CoreResult<AnyMpc>
 where
-    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
 {
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    let p = problem_of::<Const<NX>, Const<NU>>(p)?;
     let per_knot = 40 * std::mem::size_of::<Matrix<NX, NX>>();
     crate::convert::check_allocation("horizon", p.horizon() + 1, per_knot)?;
     let mpc = MpcSettings {
         iterations: a.iterations,
         initial_iterations: a.initial_iterations,
-        goal: a.goal.vector::<NX>("goal")?,
+        goal: a.goal.vector("goal", Const::<NX>)?,
         goal_indices: a.goal_indices.clone(),
         goal_radius: a.goal_radius,
         position_indices: a.position_indices,
@@ -958,10 +1034,10 @@ where
         vec![],
         settings,
         tightening.map(|t| t.build::<NX, NU>()).transpose()?,
-        sigma_w.matrix::<NX, NX>("sigma_w")?,
+        sigma_w.matrix("sigma_w", Const::<NX>, Const::<NX>)?,
         mpc,
     )?;
-    Ok(<Dims as SafePair<NX, NU>>::wrap_mpc(m))
+    Ok(<Dispatch as SafePair<NX, NU>>::wrap_mpc(m))
 }
 
 struct EpisodeOut {
@@ -975,9 +1051,9 @@ struct EpisodeOut {
 
 fn run_mpc<const NX: usize, const NU: usize>(m: &mut AnyMpc, seed: u64) -> CoreResult<EpisodeOut>
 where
-    Dims: Pair<NX, NU> + SafePair<NX, NU>,
+    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
 {
-    let m = <Dims as SafePair<NX, NU>>::mpc(m).ok_or_else(|| internal_mismatch("mpc"))?;
+    let m = <Dispatch as SafePair<NX, NU>>::mpc(m).ok_or_else(|| internal_mismatch("mpc"))?;
     let e = m.run_episode(seed)?;
     Ok(EpisodeOut {
         success: e.success,
@@ -1008,9 +1084,20 @@ pub struct Mpc {
 #[pymethods]
 impl Mpc {
     #[new]
-    #[pyo3(signature = (problem, constraints, sigma_w, goal, tightening = None, goal_indices = vec![0, 1],
-                        goal_radius = 0.1, iterations = 10, initial_iterations = 50,
-                        position_indices = (0, 1), max_iterations = 400))]
+    #[pyo3(signature = (problem, constraints, sigma_w, goal, tightening = None,
+                        goal_indices = default_goal_indices(),
+                        goal_radius = mpc_default().goal_radius,
+                        iterations = mpc_default().iterations as i64,
+                        initial_iterations = mpc_default().initial_iterations as i64,
+                        position_indices = default_position_indices(),
+                        max_iterations = MPC_MAX_ITERATIONS as i64))]
+    // The defaults as Python sees them; tests compare them and the stub with `default_settings`.
+    #[pyo3(
+        text_signature = "(problem, constraints, sigma_w, goal, tightening=None, goal_indices=[0, 1], \
+                             goal_radius=0.1, iterations=10, initial_iterations=50, position_indices=(0, 1), \
+                             max_iterations=400)"
+    )]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         problem: Bound<'_, Problem>,
         constraints: &Bound<'_, PyAny>,
@@ -1025,7 +1112,14 @@ impl Mpc {
         max_iterations: i64,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
-        let settings = settings_from("ilqr", max_iterations, 1e-8, "fast", true)?;
+        let d = Settings::default();
+        let settings = settings_from(
+            method_name(d.method),
+            max_iterations,
+            d.constraint_tolerance,
+            qp_name(d.qp_method),
+            d.al_warm_start,
+        )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
         let sigma_w = finite_arr(sigma_w, "sigma_w")?;
@@ -1055,7 +1149,7 @@ impl Mpc {
         };
         let t = tightening.as_ref().map(|t| t.get());
         let inner = Problem::read(&p.inner, |q| {
-            with_dims!(nx, nu, new_mpc(q, &specs, t, &sigma_w, settings, &args))
+            with_compiled!("Safe-CDDP", nx, nu, new_mpc(q, &specs, t, &sigma_w, settings, &args))
         })?;
         Ok(Self { inner, nx, nu })
     }
@@ -1065,7 +1159,8 @@ impl Mpc {
     fn run_episode(&mut self, py: Python<'_>, seed: u64) -> PyResult<Episode> {
         let (nx, nu) = (self.nx, self.nu);
         let inner = &mut self.inner;
-        let e = py.detach(|| -> CoreResult<EpisodeOut> { with_dims!(nx, nu, run_mpc(inner, seed)) })?;
+        let e =
+            py.detach(|| -> CoreResult<EpisodeOut> { with_compiled!("Safe-CDDP", nx, nu, run_mpc(inner, seed)) })?;
         Ok(Episode {
             success: e.success,
             steps: e.steps,

@@ -2,13 +2,17 @@
 
 use std::sync::{Arc, RwLock};
 
-use ddp_core::{Method, Regularization, Report, Settings, Solver as CoreSolver, Vector};
+use ddp_core::dims::{Alloc, DefaultAllocator, Dim, MatrixN, VectorN};
+use ddp_core::{
+    LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Solver as CoreSolver,
+    Tolerances,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::convert::{check_allocation, finite_arr, row_major, rows_to_numpy, stack_to_numpy, vec_to_numpy, Arr};
-use crate::dims::{internal_mismatch, AnyProblem, AnySolver, Dims, Pair};
-use crate::errors::{invalid, CoreResult};
+use crate::dims::{problem_of, solver_mut_of, solver_of, AnyProblem, AnySolver, Dispatch, Pair};
+use crate::errors::{invalid, CoreError, CoreResult};
 use crate::problem::{controls, Problem};
 
 /// Plain-data results of a solve, copied out of the workspace without the GIL.
@@ -30,37 +34,47 @@ struct SolveOut {
     report: Report,
 }
 
-fn new_solver<const NX: usize, const NU: usize>(p: &AnyProblem, settings: Settings) -> CoreResult<AnySolver>
+fn new_solver<NX: Dim, NU: Dim>(p: &AnyProblem, settings: Settings) -> CoreResult<AnySolver>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    let p = problem_of::<NX, NU>(p)?;
     // What the workspace holds per knot (states, controls, Jacobians, cost derivatives, gains,
-    // value function), with room to spare: a horizon too large to allocate is an error, not an abort.
+    // value function), with room to spare: a horizon too large to allocate is an error, not an
+    // abort. At run-time sizes the entries are on the heap: count them too.
     use std::mem::size_of;
-    let per_knot = 4 * size_of::<Vector<NX>>()
-        + 3 * size_of::<Vector<NU>>()
-        + 2 * size_of::<ddp_core::Matrix<NX, NX>>()
-        + size_of::<ddp_core::Matrix<NX, NU>>()
-        + size_of::<ddp_core::Matrix<NU, NX>>()
-        + size_of::<ddp_core::CostDerivatives<NX, NU>>();
+    let (nx, nu) = (p.dims().nx(), p.dims().nu());
+    let heap = if NX::try_to_usize().is_some() && NU::try_to_usize().is_some() {
+        0
+    } else {
+        (3 * nx * nx + 3 * nx * nu + nu * nu + 4 * nx + 3 * nu) * size_of::<f64>()
+    };
+    let per_knot = 4 * size_of::<VectorN<NX>>()
+        + 3 * size_of::<VectorN<NU>>()
+        + 2 * size_of::<MatrixN<NX, NX>>()
+        + size_of::<MatrixN<NX, NU>>()
+        + size_of::<MatrixN<NU, NX>>()
+        + size_of::<ddp_core::CostDerivatives<NX, NU>>()
+        + heap;
     check_allocation("horizon", p.horizon() + 1, 2 * per_knot)?;
-    Ok(<Dims as Pair<NX, NU>>::wrap_solver(CoreSolver::new(p, settings)?))
+    Ok(<Dispatch as Pair<NX, NU>>::wrap_solver(CoreSolver::new(p, settings)?))
 }
 
-fn solve_impl<const NX: usize, const NU: usize>(
+fn solve_impl<NX: Dim, NU: Dim>(
     s: &mut AnySolver,
     p: &AnyProblem,
     us0: Option<&Arr>,
     warm_start: bool,
 ) -> CoreResult<SolveOut>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let s = <Dims as Pair<NX, NU>>::solver_mut(s).ok_or_else(|| internal_mismatch("solver"))?;
-    let p = <Dims as Pair<NX, NU>>::problem(p).ok_or_else(|| internal_mismatch("problem"))?;
+    let s = solver_mut_of::<NX, NU>(s)?;
+    let p = problem_of::<NX, NU>(p)?;
     match us0 {
-        Some(us) => s.set_controls(&controls::<NU>(us, "us0", s.horizon())?)?,
+        Some(us) => s.set_controls(&controls(us, "us0", s.horizon(), s.dims().nu)?)?,
         None if !warm_start => s.reset(),
         None => {}
     }
@@ -102,68 +116,132 @@ where
     })
 }
 
-fn shift_impl<const NX: usize, const NU: usize>(s: &mut AnySolver) -> CoreResult<()>
+fn shift_impl<NX: Dim, NU: Dim>(s: &mut AnySolver) -> CoreResult<()>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    <Dims as Pair<NX, NU>>::solver_mut(s)
-        .ok_or_else(|| internal_mismatch("solver"))?
-        .shift();
+    solver_mut_of::<NX, NU>(s)?.shift();
     Ok(())
 }
 
-fn reset_impl<const NX: usize, const NU: usize>(s: &mut AnySolver) -> CoreResult<()>
+fn reset_impl<NX: Dim, NU: Dim>(s: &mut AnySolver) -> CoreResult<()>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    <Dims as Pair<NX, NU>>::solver_mut(s)
-        .ok_or_else(|| internal_mismatch("solver"))?
-        .reset();
+    solver_mut_of::<NX, NU>(s)?.reset();
     Ok(())
 }
 
-fn controls_impl<const NX: usize, const NU: usize>(s: &AnySolver) -> CoreResult<Vec<f64>>
+fn controls_impl<NX: Dim, NU: Dim>(s: &AnySolver) -> CoreResult<Vec<f64>>
 where
-    Dims: Pair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
 {
-    let s = <Dims as Pair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
-    Ok(s.us().iter().flat_map(|u: &Vector<NU>| u.iter().copied()).collect())
+    Ok(solver_of::<NX, NU>(s)?
+        .us()
+        .iter()
+        .flat_map(|u| u.iter().copied())
+        .collect())
+}
+
+// ------------------------------------------------------------------------------------------------
+// Settings: flat keyword arguments in Python, ddp-core's nested `Settings` in Rust, every default
+// from `Settings::default()`.
+
+/// The Python name of a [`Method`].
+pub(crate) fn method_name(m: Method) -> &'static str {
+    match m {
+        Method::Ilqr => "ilqr",
+        Method::Ddp => "ddp",
+    }
+}
+
+/// A [`Method`] from its Python name (any case), naming `method` otherwise.
+pub(crate) fn parse_method(name: &str) -> CoreResult<Method> {
+    match name.to_ascii_lowercase().as_str() {
+        "ilqr" => Ok(Method::Ilqr),
+        "ddp" => Ok(Method::Ddp),
+        other => Err(invalid("method", format!("must be 'ilqr' or 'ddp', got '{other}'"))),
+    }
+}
+
+/// The Python name of a [`Regularization`] placement.
+fn placement_name(r: Regularization) -> &'static str {
+    match r {
+        Regularization::Control => "control",
+        Regularization::State => "state",
+    }
+}
+
+/// The flat Python keyword of each nested field of [`Settings`] (the others have the same name).
+const FLAT_NAMES: &[(&str, &str)] = &[
+    ("tolerances.gradient", "gradient_tolerance"),
+    ("tolerances.cost", "cost_tolerance"),
+    ("regularization.mu_init", "mu_init"),
+    ("regularization.mu_min", "mu_min"),
+    ("regularization.mu_max", "mu_max"),
+    ("regularization.mu_factor", "mu_factor"),
+    ("regularization.placement", "regularization"),
+    ("line_search.step_factor", "step_factor"),
+    ("line_search.step_min", "step_min"),
+    ("line_search.armijo", "armijo"),
+];
+
+/// Renames the nested settings fields in a validation error (`settings.tolerances.gradient`) to
+/// the keyword arguments the user wrote (`settings.gradient_tolerance`).
+fn flat_error(e: ddp_core::Error) -> CoreError {
+    let flat = |text: &mut String| {
+        for (nested, name) in FLAT_NAMES {
+            *text = text.replace(&format!("settings.{nested}"), &format!("settings.{name}"));
+        }
+    };
+    let mut e = e;
+    match &mut e {
+        ddp_core::Error::Invalid { field, reason } => {
+            flat(field);
+            flat(reason);
+        }
+        ddp_core::Error::NotFinite { field, .. } | ddp_core::Error::Shape { field, .. } => flat(field),
+        _ => {}
+    }
+    CoreError(e)
 }
 
 fn settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item(
-        "method",
-        match s.method {
-            Method::Ilqr => "ilqr",
-            Method::Ddp => "ddp",
-        },
-    )?;
+    d.set_item("method", method_name(s.method))?;
     d.set_item("max_iterations", s.max_iterations)?;
-    d.set_item("gradient_tolerance", s.gradient_tolerance)?;
-    d.set_item("cost_tolerance", s.cost_tolerance)?;
-    d.set_item("mu_init", s.mu_init)?;
-    d.set_item("mu_min", s.mu_min)?;
-    d.set_item("mu_max", s.mu_max)?;
-    d.set_item("mu_factor", s.mu_factor)?;
-    d.set_item(
-        "regularization",
-        match s.regularization {
-            Regularization::Control => "control",
-            Regularization::State => "state",
-        },
-    )?;
-    d.set_item("step_factor", s.step_factor)?;
-    d.set_item("step_min", s.step_min)?;
-    d.set_item("armijo", s.armijo)?;
+    d.set_item("gradient_tolerance", s.tolerances.gradient)?;
+    d.set_item("cost_tolerance", s.tolerances.cost)?;
+    d.set_item("mu_init", s.regularization.mu_init)?;
+    d.set_item("mu_min", s.regularization.mu_min)?;
+    d.set_item("mu_max", s.regularization.mu_max)?;
+    d.set_item("mu_factor", s.regularization.mu_factor)?;
+    d.set_item("regularization", placement_name(s.regularization.placement))?;
+    d.set_item("step_factor", s.line_search.step_factor)?;
+    d.set_item("step_min", s.line_search.step_min)?;
+    d.set_item("armijo", s.line_search.armijo)?;
     d.set_item("box_qp_iterations", s.box_qp_iterations)?;
     Ok(d)
 }
 
-/// The default solver settings (those of `ddp_core::Settings::default()`) as a dict.
+/// The default settings of `kind` (`"Solver"`, `"SafeCddpSolver"` or `"Mpc"`) as a dict of the
+/// keyword arguments of that class: Rust's `Default` values, which the classes' signatures use.
 #[pyfunction]
-pub fn default_settings(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-    settings_dict(py, &Settings::default())
+#[pyo3(signature = (kind = "Solver"))]
+pub fn default_settings<'py>(py: Python<'py>, kind: &str) -> PyResult<Bound<'py, PyDict>> {
+    match kind {
+        "Solver" => settings_dict(py, &Settings::default()),
+        "SafeCddpSolver" => crate::safe::safe_defaults(py),
+        "Mpc" => crate::safe::mpc_defaults(py),
+        other => Err(invalid(
+            "kind",
+            format!("must be 'Solver', 'SafeCddpSolver' or 'Mpc', got '{other}'"),
+        )
+        .into()),
+    }
 }
 
 fn count(field: &str, v: i64) -> CoreResult<usize> {
@@ -195,20 +273,29 @@ impl Solver {
     #[new]
     #[pyo3(signature = (
         problem,
-        method = "ilqr",
-        max_iterations = 200,
-        gradient_tolerance = 1e-9,
-        cost_tolerance = 1e-14,
-        mu_init = 0.0,
-        mu_min = 1e-9,
-        mu_max = 1e10,
-        mu_factor = 1.6,
-        regularization = "control",
-        step_factor = 0.5,
-        step_min = 0.0009765625,
-        armijo = 1e-4,
-        box_qp_iterations = 100,
+        method = method_name(Settings::default().method),
+        max_iterations = Settings::default().max_iterations as i64,
+        gradient_tolerance = Tolerances::default().gradient,
+        cost_tolerance = Tolerances::default().cost,
+        mu_init = RegularizationSettings::default().mu_init,
+        mu_min = RegularizationSettings::default().mu_min,
+        mu_max = RegularizationSettings::default().mu_max,
+        mu_factor = RegularizationSettings::default().mu_factor,
+        regularization = placement_name(RegularizationSettings::default().placement),
+        step_factor = LineSearchSettings::default().step_factor,
+        step_min = LineSearchSettings::default().step_min,
+        armijo = LineSearchSettings::default().armijo,
+        box_qp_iterations = Settings::default().box_qp_iterations as i64,
     ))]
+    // The defaults as Python sees them (`inspect.signature`, the stub); tests compare both with
+    // `default_settings()`.
+    #[pyo3(
+        text_signature = "(problem, method='ilqr', max_iterations=200, gradient_tolerance=1e-9, \
+                             cost_tolerance=1e-14, mu_init=0.0, mu_min=1e-9, mu_max=1e10, mu_factor=1.6, \
+                             regularization='control', step_factor=0.5, step_min=0.0009765625, armijo=1e-4, \
+                             box_qp_iterations=100)"
+    )]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         problem: Bound<'_, Problem>,
         method: &str,
@@ -225,12 +312,7 @@ impl Solver {
         armijo: f64,
         box_qp_iterations: i64,
     ) -> PyResult<Self> {
-        let method = match method.to_ascii_lowercase().as_str() {
-            "ilqr" => Method::Ilqr,
-            "ddp" => Method::Ddp,
-            other => return Err(invalid("method", format!("must be 'ilqr' or 'ddp', got '{other}'")).into()),
-        };
-        let regularization = match regularization.to_ascii_lowercase().as_str() {
+        let placement = match regularization.to_ascii_lowercase().as_str() {
             "control" => Regularization::Control,
             "state" => Regularization::State,
             other => {
@@ -238,20 +320,27 @@ impl Solver {
             }
         };
         let settings = Settings {
-            method,
+            method: parse_method(method)?,
             max_iterations: count("max_iterations", max_iterations)?,
-            gradient_tolerance,
-            cost_tolerance,
-            mu_init,
-            mu_min,
-            mu_max,
-            mu_factor,
-            regularization,
-            step_factor,
-            step_min,
-            armijo,
+            tolerances: Tolerances {
+                gradient: gradient_tolerance,
+                cost: cost_tolerance,
+            },
+            regularization: RegularizationSettings {
+                mu_init,
+                mu_min,
+                mu_max,
+                mu_factor,
+                placement,
+            },
+            line_search: LineSearchSettings {
+                step_factor,
+                step_min,
+                armijo,
+            },
             box_qp_iterations: count("box_qp_iterations", box_qp_iterations)?,
         };
+        settings.validate().map_err(flat_error)?;
         let p = problem.get();
         let (nx, nu, horizon) = (p.nx, p.nu, p.horizon);
         let shared = p.inner.clone();
@@ -354,10 +443,7 @@ impl Solver {
     }
 
     fn __repr__(&self) -> String {
-        let method = match self.settings.method {
-            Method::Ilqr => "ilqr",
-            Method::Ddp => "ddp",
-        };
+        let method = method_name(self.settings.method);
         format!(
             "Solver(method='{method}', nx={}, nu={}, horizon={})",
             self.nx, self.nu, self.horizon

@@ -2,6 +2,23 @@
 
 Arrays are accepted as anything ``numpy.asarray(..., dtype=float64)`` understands (arrays of any
 real dtype, lists, tuples, scalars) and returned as new float64 ``numpy.ndarray``\\ s.
+
+Any size: :class:`LinearDynamics`, :class:`QuadraticCost`, :class:`QuadraticTerminal`,
+:class:`ControlSquared`, control bounds, :class:`Problem` and :class:`Solver` work with any
+``nx >= 1`` states and ``nu >= 1`` controls (up to 1024 and 512). The built-in robots' sizes
+(:func:`supported_dimensions`) run on fixed-size matrices; every other size on run-time-size
+matrices, through the same Rust code. A 7-state, 3-control linear system::
+
+    import numpy as np, ddpkit
+    rng = np.random.default_rng(0)
+    A = np.eye(7) + 0.05 * rng.standard_normal((7, 7))
+    B = rng.standard_normal((7, 3))
+    problem = ddpkit.Problem(
+        x0=np.ones(7), dynamics=ddpkit.LinearDynamics(A, B),
+        running_cost=ddpkit.QuadraticCost(Q=np.eye(7), R=0.1 * np.eye(3)),
+        terminal_cost=ddpkit.QuadraticTerminal(Qf=10 * np.eye(7)), horizon=50,
+        u_min=-1.0, u_max=1.0)
+    solution = ddpkit.Solver(problem).solve()  # box-DDP; solution.K has shape (50, 3, 7)
 """
 
 import os
@@ -101,8 +118,8 @@ class DdpError(Exception):
     field: str
 
 class ShapeError(DdpError, ValueError):
-    """An array has the wrong shape, a list the wrong length, or the ``(nx, nu)`` pair of a
-    model is not compiled into this build (see :func:`supported_dimensions`)."""
+    """An array has the wrong shape, a list the wrong length, or pieces of a problem disagree in
+    size (or Safe-CDDP gets a pair outside :func:`supported_dimensions`)."""
 
 class NotFiniteError(DdpError, ValueError):
     """A value that must be finite is NaN or infinite. The message gives the flat index."""
@@ -260,10 +277,11 @@ class ArmBase(Dynamics):
 
 @final
 class LinearDynamics(Dynamics):
-    """Linear dynamics ``x+ = A x + B u + c``.
+    """Linear dynamics ``x+ = A x + B u + c``, at any size.
 
-    ``A`` has shape ``(nx, nx)``, ``B`` ``(nx, nu)``, ``c`` ``(nx,)`` (zeros when omitted).
-    ``(nx, nu)`` must be one of :func:`supported_dimensions`.
+    ``A`` has shape ``(nx, nx)``, ``B`` ``(nx, nu)``, ``c`` ``(nx,)`` (zeros when omitted), with
+    ``1 <= nx <= 1024`` and ``1 <= nu <= 512`` (an ``InvalidInputError`` names ``A.shape[0]`` or
+    ``B.shape[1]`` otherwise). See the module docs for a 7-state, 3-control example.
     """
 
     def __new__(
@@ -304,7 +322,8 @@ class QuadraticCost(Cost):
     """``1/2 (x - x_ref)^T Q (x - x_ref) + 1/2 (u - u_ref)^T R (u - u_ref)``.
 
     ``Q`` ``(nx, nx)`` and ``R`` ``(nu, nu)`` must be symmetric PSD; a 1-D array is taken as the
-    diagonal. References default to zero.
+    diagonal. References default to zero. Any size (``nx <= 1024``, ``nu <= 512``); the sizes
+    must match the problem's.
     """
 
     def __new__(
@@ -329,7 +348,8 @@ class QuadraticCost(Cost):
 
 @final
 class QuadraticTerminal(Cost):
-    """Terminal ``1/2 (x - x_ref)^T Qf (x - x_ref)``; ``Qf`` symmetric PSD (1-D: the diagonal)."""
+    """Terminal ``1/2 (x - x_ref)^T Qf (x - x_ref)``; ``Qf`` symmetric PSD (1-D: the diagonal).
+    Any size (``nx <= 1024``)."""
 
     def __new__(
         cls, Qf: _ArrayLike, x_ref: Optional[_ArrayLike] = None) -> Self: ...
@@ -342,7 +362,7 @@ class QuadraticTerminal(Cost):
 
 @final
 class ControlSquared(Cost):
-    """``weight * sum(u**2)`` (DDPEN eq. 5); ``weight >= 0``."""
+    """``weight * sum(u**2)`` (DDPEN eq. 5); ``weight >= 0``. Any size."""
 
     def __new__(
         cls, weight: float) -> Self: ...
@@ -353,7 +373,9 @@ class ControlSquared(Cost):
 @final
 class SmoothDistance(Cost):
     """``weight * sqrt(|p - target|^2 + eps^2)`` with ``p = (x[i0], x[i1])`` for
-    ``indices = (i0, i1)``: the DDPEN goal and sub-goal costs (eqs. 6, 9). Running or terminal."""
+    ``indices = (i0, i1)``: the DDPEN goal and sub-goal costs (eqs. 6, 9). Running or terminal.
+    Like :class:`ObstacleHinge` and :class:`CirclePenalty`, only for the state sizes of
+    :func:`supported_dimensions` (an ``InvalidInputError`` at other sizes)."""
 
     def __new__(
         cls,
@@ -436,8 +458,10 @@ class Problem:
 
     ``dynamics`` and ``running_cost`` are one object for every knot or lists of length
     ``horizon``; ``terminal_cost`` must be state-only. ``u_min``/``u_max`` are arrays ``(nu,)``
-    or scalars, ``+-inf`` for no bound (control limits are handled by box-DDP). Errors name the
-    argument: ``ShapeError`` for wrong shapes or list lengths, ``NotFiniteError`` for NaN,
+    or scalars, ``+-inf`` for no bound (control limits are handled by box-DDP). ``nx`` and
+    ``nu`` are the dynamics' (any size, see the module docs); every other piece must agree. Errors
+    name the argument: ``ShapeError`` for wrong shapes, list lengths and pieces of another size
+    (``running_cost.Q has shape (6, 6), expected (7, 7)``), ``NotFiniteError`` for NaN,
     ``InvalidInputError`` for ``horizon < 1``, wrong types and non-PSD weights.
     """
 
@@ -489,8 +513,10 @@ class Solver:
     - ``step_factor``, ``step_min``, ``armijo``: the backtracking line search;
     - ``box_qp_iterations``: iteration limit of the box QP (control limits).
 
-    A solver is used by one thread at a time; the GIL is released during :meth:`solve`, so
-    solvers in different threads run in parallel.
+    The defaults are Rust's (``ddp_core::Settings::default()``, also :func:`default_settings`).
+    Problems of any size are solved (see the module docs). A solver is used by one thread at a
+    time; the GIL is released during :meth:`solve`, so solvers in different threads run in
+    parallel.
     """
 
     def __new__(
@@ -597,11 +623,17 @@ class Solution:
     def table(self) -> str:
         """The iteration table (no timings, so it is deterministic)."""
 
-def default_settings() -> dict[str, Union[str, int, float]]:
-    """The default solver settings (``ddp_core::Settings::default()``)."""
+def default_settings(kind: str = "Solver") -> dict[str, Any]:
+    """The defaults of the keyword arguments of ``kind``: ``"Solver"``
+    (``ddp_core::Settings::default()``), ``"SafeCddpSolver"`` (``safe_cddp::Settings::default()``)
+    or ``"Mpc"`` (``safe_cddp::mpc::MpcSettings::default()``). The classes' signatures take their
+    defaults from the same Rust values."""
 
 def supported_dimensions() -> list[tuple[int, int]]:
-    """The ``(nx, nu)`` pairs compiled into this build."""
+    """The ``(nx, nu)`` pairs compiled into this build: the fixed-size fast path of the built-in
+    robots, and the sizes :class:`SafeCddpSolver` and :class:`Mpc` support. Every other size
+    ``nx >= 1, nu >= 1`` (up to 1024 states and 512 controls) works with :class:`Solver` at
+    run-time sizes."""
 
 # --------------------------------------------------------------------------------------------
 # Bezier curves, splines, motion profiles (Queen Elizabeth's School (2022)); public as
@@ -1049,7 +1081,9 @@ class SafeCddpSolver:
     ``constraints`` is a sequence of :class:`Constraint`; ``method`` ``"ilqr"`` or ``"ddp"``;
     ``qp_method`` ``"fast"`` (unconstrained / active-set / Clarabel) or ``"clarabel"``;
     ``warm_up`` enables the augmented-Lagrangian warm-up. The workspace is allocated once;
-    :meth:`solve` releases the GIL.
+    :meth:`solve` releases the GIL. Defaults: ``safe_cddp::Settings::default()`` (also
+    :func:`default_settings` ``("SafeCddpSolver")``). The problem's ``(nx, nu)`` must be one of
+    :func:`supported_dimensions` (a ``ShapeError`` otherwise).
     """
 
     def __new__(
@@ -1146,8 +1180,8 @@ class Mpc:
     the trajectory is shifted and the horizon shortened. An episode ends in the goal region
     (``goal_radius`` around ``goal`` on ``goal_indices``) or when the horizon runs out.
     Collisions are steps whose true state violates an original state constraint. Uses a copy of
-    the problem taken at construction. ``goal_indices`` defaults to ``[0, 1]`` and
-    ``position_indices`` (the planar position) to ``(0, 1)``.
+    the problem taken at construction. ``position_indices`` is the planar position. Defaults:
+    :func:`default_settings` ``("Mpc")``.
     """
 
     def __new__(
@@ -1157,11 +1191,11 @@ class Mpc:
         sigma_w: _ArrayLike,
         goal: _ArrayLike,
         tightening: Optional[Tightening] = None,
-        goal_indices: Sequence[int] = ...,
+        goal_indices: Sequence[int] = [0, 1],
         goal_radius: float = 0.1,
         iterations: int = 10,
         initial_iterations: int = 50,
-        position_indices: tuple[int, int] = ...,
+        position_indices: tuple[int, int] = (0, 1),
         max_iterations: int = 400,
     ) -> Self: ...
     def run_episode(self, seed: int) -> Episode:

@@ -14,8 +14,6 @@
 //! - `with_dims!(nx, nu, f(args))`: `f::<Const<a>, Const<b>>(args)` or `f::<Dyn, Dyn>(args)`
 //!   (sizes of 0 or past [`ddp_core::dims::MAX_STATES`] / [`ddp_core::dims::MAX_CONTROLS`] are an
 //!   error naming `nx` or `nu`);
-//! - `with_compiled!(nx, nu, f(args))`: `f::<a, b>(args)` for const-generic code (Safe-CDDP), or
-//!   a `ShapeError` naming the compiled pairs.
 //!
 //! Adding a pair is one line in [`compiled_pairs!`].
 
@@ -239,17 +237,6 @@ macro_rules! define_pairs {
                         Ok(()) => $d f::<::ddp_core::dims::Dyn, ::ddp_core::dims::Dyn>( $d ( $d arg ),* ),
                         Err(e) => Err(::core::convert::Into::into(e)),
                     },
-                }
-            };
-        }
-
-        /// Calls the const-generic function `f::<NX, NU>(args)` for a compiled pair; any other
-        /// pair gives `Err(unsupported(what, nx, nu).into())`.
-        macro_rules! with_compiled {
-            ($d what:expr, $d nx:expr, $d nu:expr, $d f:ident ( $d ( $d arg:expr ),* $d (,)? )) => {
-                match ($d nx, $d nu) {
-                    $( ($nx, $nu) => $d f::<$nx, $nu>( $d ( $d arg ),* ), )+
-                    (nx, nu) => Err(::core::convert::Into::into($crate::dims::unsupported($d what, nx, nu))),
                 }
             };
         }

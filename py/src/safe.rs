@@ -13,8 +13,7 @@
 
 use std::sync::{Arc, RwLock};
 
-use ddp_core::dims::Const;
-use ddp_core::{Matrix, Vector};
+use ddp_core::dims::{Alloc, Const, DefaultAllocator, Dim, Dims, Dyn, VectorN};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use safe_cddp::constraints::{Circle as CoreCircle, ControlBox as CoreControlBox, ConvexPolygon as CorePolygon};
@@ -66,16 +65,22 @@ enum Spec {
     },
 }
 
-fn bound_vector<const N: usize>(v: &[f64], field: &str) -> CoreResult<Vector<N>> {
-    if v.len() != N {
-        return Err(shape(field, format!("({},)", v.len()), format!("({N},)")));
+fn bound_vector<N: Dim>(v: &[f64], field: &str, n: N) -> CoreResult<VectorN<N>>
+where
+    DefaultAllocator: Alloc<N, N>,
+{
+    if v.len() != n.value() {
+        return Err(shape(field, format!("({},)", v.len()), format!("({},)", n.value())));
     }
-    Ok(Vector::<N>::from_row_slice(v))
+    Ok(VectorN::from_row_slice_generic(n, nalgebra::U1, v))
 }
 
 impl Spec {
     /// The typed constraint for `(NX, NU)`; errors name `field`.
-    fn build<const NX: usize, const NU: usize>(&self, field: &str) -> CoreResult<Arc<dyn CoreConstraint<NX, NU>>> {
+    fn build<NX: Dim, NU: Dim>(&self, field: &str, d: Dims<NX, NU>) -> CoreResult<Arc<dyn CoreConstraint<NX, NU>>>
+    where
+        DefaultAllocator: Alloc<NX, NU>,
+    {
         Ok(match self {
             Spec::Circle {
                 center,
@@ -83,7 +88,7 @@ impl Spec {
                 indices,
                 distance,
             } => {
-                check_index::<NX>(indices, field)?;
+                check_index(indices, field, d.nx())?;
                 if *distance {
                     Arc::new(CoreCircle::<NX>::distance(*center, *radius, *indices)?)
                 } else {
@@ -95,7 +100,7 @@ impl Spec {
                 margin,
                 indices,
             } => {
-                check_index::<NX>(indices, field)?;
+                check_index(indices, field, d.nx())?;
                 Arc::new(CorePolygon::<NX>::new(vertices, *margin, *indices)?)
             }
             Spec::Cylinder {
@@ -105,27 +110,27 @@ impl Spec {
                 band,
                 indices,
             } => {
-                check_index::<NX>(indices, field)?;
+                check_index(indices, field, d.nx())?;
                 Arc::new(CoreCylinder::<NX>::new(*center, *radius, *height, *band, *indices)?)
             }
             Spec::StateBox { lower, upper } => Arc::new(CoreStateBox::<NX>::new(
-                bound_vector::<NX>(lower, &format!("{field}.lower"))?,
-                bound_vector::<NX>(upper, &format!("{field}.upper"))?,
+                bound_vector(lower, &format!("{field}.lower"), d.nx)?,
+                bound_vector(upper, &format!("{field}.upper"), d.nx)?,
             )?),
             Spec::ControlBox { lower, upper } => Arc::new(CoreControlBox::<NU>::new(
-                bound_vector::<NU>(lower, &format!("{field}.lower"))?,
-                bound_vector::<NU>(upper, &format!("{field}.upper"))?,
+                bound_vector(lower, &format!("{field}.lower"), d.nu)?,
+                bound_vector(upper, &format!("{field}.upper"), d.nu)?,
             )?),
         })
     }
 }
 
-fn check_index<const NX: usize>(indices: &[usize], field: &str) -> CoreResult<()> {
+fn check_index(indices: &[usize], field: &str, nx: usize) -> CoreResult<()> {
     for (i, &j) in indices.iter().enumerate() {
-        if j >= NX {
+        if j >= nx {
             return Err(invalid(
                 format!("{field}.indices[{i}]"),
-                format!("state index {j} out of range for {NX} states"),
+                format!("state index {j} out of range for {nx} states"),
             ));
         }
     }
@@ -207,7 +212,7 @@ impl Circle {
             other => return Err(invalid("form", format!("must be 'squared' or 'distance', got '{other}'")).into()),
         };
         // Validate now (the dimension check waits for the solver).
-        CoreCircle::<64>::new(
+        CoreCircle::<Dyn>::new(
             center,
             radius,
             [0, 1],
@@ -255,7 +260,7 @@ impl ConvexPolygon {
         }
         let vertices: Vec<[f64; 2]> = a.data.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
         let indices = [index_arg(indices.0, "indices[0]")?, index_arg(indices.1, "indices[1]")?];
-        CorePolygon::<64>::new(&vertices, margin, [0, 1]).map_err(crate::errors::CoreError)?;
+        CorePolygon::<Dyn>::new(&vertices, margin, [0, 1]).map_err(crate::errors::CoreError)?;
         if indices[0] == indices[1] {
             return Err(invalid("indices", "the two position indices must differ").into());
         }
@@ -293,7 +298,7 @@ impl Cylinder {
             index_arg(indices.1, "indices[1]")?,
             index_arg(indices.2, "indices[2]")?,
         ];
-        CoreCylinder::<64>::new(center, radius, height, band, [0, 1, 2]).map_err(crate::errors::CoreError)?;
+        CoreCylinder::<Dyn>::new(center, radius, height, band, [0, 1, 2]).map_err(crate::errors::CoreError)?;
         if indices[0] == indices[1] || indices[0] == indices[2] || indices[1] == indices[2] {
             return Err(invalid("indices", "the three position indices must differ").into());
         }
@@ -399,19 +404,22 @@ pub struct Tightening {
 }
 
 impl Tightening {
-    fn build<const NX: usize, const NU: usize>(&self) -> CoreResult<CoreTightening<NX, NU>> {
-        let sigma_w = self.sigma_w.matrix("tightening.sigma_w", Const::<NX>, Const::<NX>)?;
+    fn build<NX: Dim, NU: Dim>(&self, d: Dims<NX, NU>) -> CoreResult<CoreTightening<NX, NU>>
+    where
+        DefaultAllocator: Alloc<NX, NU>,
+    {
+        let sigma_w = self.sigma_w.matrix("tightening.sigma_w", d.nx, d.nx)?;
         let gains = match &self.gains {
             GainSpec::ClosedLoop => Gains::ClosedLoop,
             GainSpec::ActiveSet => Gains::ActiveSet,
             GainSpec::OpenLoop => Gains::OpenLoop,
-            GainSpec::Fixed(k) => Gains::Fixed(k.matrix("tightening.gains", Const::<NU>, Const::<NX>)?),
+            GainSpec::Fixed(k) => Gains::Fixed(k.matrix("tightening.gains", d.nu, d.nx)?),
         };
         let mut t = CoreTightening::new(self.beta, sigma_w)?
             .with_gains(gains)?
             .with_update_every(self.update_every)?;
         if let Some(s0) = &self.sigma_0 {
-            t = t.with_initial_covariance(s0.matrix("tightening.sigma_0", Const::<NX>, Const::<NX>)?)?;
+            t = t.with_initial_covariance(s0.matrix("tightening.sigma_0", d.nx, d.nx)?)?;
         }
         Ok(t)
     }
@@ -554,7 +562,7 @@ fn qp_name(q: QpMethod) -> &'static str {
 const MPC_MAX_ITERATIONS: usize = 400;
 
 /// The MPC loop's defaults (`MpcSettings::default()`; its goal has none and is not used).
-fn mpc_default() -> MpcSettings<1> {
+fn mpc_default() -> MpcSettings<Const<1>> {
     MpcSettings::default()
 }
 
@@ -631,59 +639,90 @@ fn settings_from(
 
 macro_rules! any_safe {
     ($( $var:ident = ($nx:literal, $nu:literal) ),+ $(,)?) => {
-        enum AnySafe { $( $var(Box<CoreSolver<$nx, $nu>>) ),+ }
-        enum AnyMpc { $( $var(Box<CoreMpc<$nx, $nu>>) ),+ }
-        /// Access to the variants of [`AnySafe`] and [`AnyMpc`] for one pair.
-        trait SafePair<const NX: usize, const NU: usize> {
-            fn solver(s: &mut AnySafe) -> Option<&mut CoreSolver<NX, NU>>;
-            fn wrap(s: CoreSolver<NX, NU>) -> AnySafe;
-            fn mpc(m: &mut AnyMpc) -> Option<&mut CoreMpc<NX, NU>>;
-            fn wrap_mpc(m: CoreMpc<NX, NU>) -> AnyMpc;
+        enum AnySafe {
+            $( $var(Box<CoreSolver<Const<$nx>, Const<$nu>>>), )+
+            Dyn(Box<CoreSolver<Dyn, Dyn>>),
         }
-        $(
-            #[allow(unreachable_patterns)]
-            impl SafePair<$nx, $nu> for Dispatch {
-                fn solver(s: &mut AnySafe) -> Option<&mut CoreSolver<$nx, $nu>> {
-                    match s { AnySafe::$var(x) => Some(&mut **x), _ => None }
-                }
-                fn wrap(s: CoreSolver<$nx, $nu>) -> AnySafe { AnySafe::$var(Box::new(s)) }
-                fn mpc(m: &mut AnyMpc) -> Option<&mut CoreMpc<$nx, $nu>> {
-                    match m { AnyMpc::$var(x) => Some(&mut **x), _ => None }
-                }
-                fn wrap_mpc(m: CoreMpc<$nx, $nu>) -> AnyMpc { AnyMpc::$var(Box::new(m)) }
-            }
-        )+
+        enum AnyMpc {
+            $( $var(Box<CoreMpc<Const<$nx>, Const<$nu>>>), )+
+            Dyn(Box<CoreMpc<Dyn, Dyn>>),
+        }
+        $( impl_safe_pair!($var, Const<$nx>, Const<$nu>); )+
+        impl_safe_pair!(Dyn, Dyn, Dyn);
     };
 }
 
-// Safe-CDDP is const-generic (for now): one variant per compiled pair of `crate::dims`, which
-// `with_compiled!` dispatches to.
+/// Access to the variants of [`AnySafe`] and [`AnyMpc`] for one dimension pair.
+trait SafePair<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn solver(s: &mut AnySafe) -> Option<&mut CoreSolver<NX, NU>>;
+    fn wrap(s: CoreSolver<NX, NU>) -> AnySafe;
+    fn mpc(m: &mut AnyMpc) -> Option<&mut CoreMpc<NX, NU>>;
+    fn wrap_mpc(m: CoreMpc<NX, NU>) -> AnyMpc;
+}
+
+macro_rules! impl_safe_pair {
+    ($var:ident, $nx:ty, $nu:ty) => {
+        #[allow(unreachable_patterns)]
+        impl SafePair<$nx, $nu> for Dispatch {
+            fn solver(s: &mut AnySafe) -> Option<&mut CoreSolver<$nx, $nu>> {
+                match s {
+                    AnySafe::$var(x) => Some(&mut **x),
+                    _ => None,
+                }
+            }
+            fn wrap(s: CoreSolver<$nx, $nu>) -> AnySafe {
+                AnySafe::$var(Box::new(s))
+            }
+            fn mpc(m: &mut AnyMpc) -> Option<&mut CoreMpc<$nx, $nu>> {
+                match m {
+                    AnyMpc::$var(x) => Some(&mut **x),
+                    _ => None,
+                }
+            }
+            fn wrap_mpc(m: CoreMpc<$nx, $nu>) -> AnyMpc {
+                AnyMpc::$var(Box::new(m))
+            }
+        }
+    };
+}
+
+// Safe-CDDP at the compiled pairs of `crate::dims` (the fixed-size fast path) and at run-time
+// sizes; `with_dims!` dispatches to the generic functions below.
 compiled_pairs!(any_safe);
 
-fn typed_constraints<const NX: usize, const NU: usize>(
+fn typed_constraints<NX: Dim, NU: Dim>(
     specs: &[Arc<Spec>],
-) -> CoreResult<Vec<Arc<dyn CoreConstraint<NX, NU>>>> {
+    d: Dims<NX, NU>,
+) -> CoreResult<Vec<Arc<dyn CoreConstraint<NX, NU>>>>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     specs
         .iter()
         .enumerate()
-        .map(|(i, s)| s.build::<NX, NU>(&format!("constraints[{i}]")))
+        .map(|(i, s)| s.build::<NX, NU>(&format!("constraints[{i}]"), d))
         .collect()
 }
 
-fn new_safe<const NX: usize, const NU: usize>(
+fn new_safe<NX: Dim, NU: Dim>(
     p: &AnyProblem,
     specs: &[Arc<Spec>],
     tightening: Option<&Tightening>,
     settings: Settings,
 ) -> CoreResult<AnySafe>
 where
-    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU> + SafePair<NX, NU>,
 {
-    let p = problem_of::<Const<NX>, Const<NU>>(p)?;
-    let per_knot = 40 * std::mem::size_of::<Matrix<NX, NX>>();
+    let p = problem_of::<NX, NU>(p)?;
+    let per_knot = 40 * p.dims().nx() * p.dims().nx() * std::mem::size_of::<f64>();
     crate::convert::check_allocation("horizon", p.horizon() + 1, per_knot)?;
-    let mut s = CoreSolver::new(p, typed_constraints::<NX, NU>(specs)?, settings)?;
-    s.set_tightening(tightening.map(|t| t.build::<NX, NU>()).transpose()?);
+    let d = p.dims();
+    let mut s = CoreSolver::new(p, typed_constraints(specs, d)?, settings)?;
+    s.set_tightening(tightening.map(|t| t.build(d)).transpose()?)?;
     Ok(<Dispatch as SafePair<NX, NU>>::wrap(s))
 }
 
@@ -701,7 +740,10 @@ struct Out {
     report: Report,
 }
 
-fn out_of<const NX: usize, const NU: usize>(s: &CoreSolver<NX, NU>) -> Out {
+fn out_of<NX: Dim, NU: Dim>(s: &CoreSolver<NX, NU>) -> Out
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     let n = s.horizon();
     Out {
         n,
@@ -717,19 +759,20 @@ fn out_of<const NX: usize, const NU: usize>(s: &CoreSolver<NX, NU>) -> Out {
     }
 }
 
-fn solve_safe<const NX: usize, const NU: usize>(
+fn solve_safe<NX: Dim, NU: Dim>(
     s: &mut AnySafe,
     p: &AnyProblem,
     us0: Option<&Arr>,
     warm_start: bool,
 ) -> CoreResult<Out>
 where
-    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU> + SafePair<NX, NU>,
 {
     let s = <Dispatch as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
-    let p = problem_of::<Const<NX>, Const<NU>>(p)?;
+    let p = problem_of::<NX, NU>(p)?;
     match us0 {
-        Some(us) => s.set_controls(&controls(us, "us0", s.horizon(), Const::<NU>)?)?,
+        Some(us) => s.set_controls(&controls(us, "us0", s.horizon(), p.dims().nu)?)?,
         None if !warm_start => s.reset(),
         None => {}
     }
@@ -737,18 +780,20 @@ where
     Ok(out_of(s))
 }
 
-fn tighten_safe<const NX: usize, const NU: usize>(s: &mut AnySafe, p: &AnyProblem) -> CoreResult<f64>
+fn tighten_safe<NX: Dim, NU: Dim>(s: &mut AnySafe, p: &AnyProblem) -> CoreResult<f64>
 where
-    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU> + SafePair<NX, NU>,
 {
     let s = <Dispatch as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
-    let p = problem_of::<Const<NX>, Const<NU>>(p)?;
+    let p = problem_of::<NX, NU>(p)?;
     Ok(s.tighten(p)?)
 }
 
-fn edit_safe<const NX: usize, const NU: usize>(s: &mut AnySafe, what: Edit) -> CoreResult<usize>
+fn edit_safe<NX: Dim, NU: Dim>(s: &mut AnySafe, what: Edit) -> CoreResult<usize>
 where
-    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU> + SafePair<NX, NU>,
 {
     let s = <Dispatch as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
     match what {
@@ -811,7 +856,7 @@ impl SafeCddpSolver {
         let shared = p.inner.clone();
         let t = tightening.as_ref().map(|t| t.get());
         let inner = Problem::read(&shared, |q| {
-            with_compiled!("Safe-CDDP", nx, nu, new_safe(q, &specs, t, settings))
+            with_dims!(nx, nu, new_safe(q, &specs, t, settings))
         })?;
         Ok(Self { shared, inner, nx, nu })
     }
@@ -831,7 +876,7 @@ impl SafeCddpSolver {
         let inner = &mut self.inner;
         let out = py.detach(|| -> CoreResult<Out> {
             Problem::read(shared, |p| {
-                with_compiled!("Safe-CDDP", nx, nu, solve_safe(inner, p, us0.as_ref(), warm_start))
+                with_dims!(nx, nu, solve_safe(inner, p, us0.as_ref(), warm_start))
             })
         })?;
         SafeSolution::from_out(py, out, nx, nu)
@@ -844,28 +889,26 @@ impl SafeCddpSolver {
         let shared = &self.shared;
         let inner = &mut self.inner;
         Ok(py.detach(|| -> CoreResult<f64> {
-            Problem::read(shared, |p| with_compiled!("Safe-CDDP", nx, nu, tighten_safe(inner, p)))
+            Problem::read(shared, |p| with_dims!(nx, nu, tighten_safe(inner, p)))
         })?)
     }
 
     /// Receding horizon: drops knot 0 of the solution (controls, gains, multipliers, margins).
     fn shift(&mut self) -> PyResult<()> {
-        with_compiled!("Safe-CDDP", self.nx, self.nu, edit_safe(&mut self.inner, Edit::Shift))?;
+        with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Shift))?;
         Ok(())
     }
 
     /// A cold start: zeros the initial guess, gains, multipliers and margins.
     fn reset(&mut self) -> PyResult<()> {
-        with_compiled!("Safe-CDDP", self.nx, self.nu, edit_safe(&mut self.inner, Edit::Reset))?;
+        with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Reset))?;
         Ok(())
     }
 
     /// Shortens (or restores) the active horizon ``1 <= n <= N`` (shrinking-horizon MPC).
     fn set_horizon(&mut self, n: i64) -> PyResult<()> {
         let n = usize::try_from(n).map_err(|_| invalid("horizon", format!("must be at least 1, got {n}")))?;
-        with_compiled!(
-            "Safe-CDDP",
-            self.nx,
+        with_dims!(self.nx,
             self.nu,
             edit_safe(&mut self.inner, Edit::Horizon(n))
         )?;
@@ -875,9 +918,7 @@ impl SafeCddpSolver {
     /// The active horizon.
     #[getter]
     fn horizon(&mut self) -> PyResult<usize> {
-        Ok(with_compiled!(
-            "Safe-CDDP",
-            self.nx,
+        Ok(with_dims!(self.nx,
             self.nu,
             edit_safe(&mut self.inner, Edit::Get)
         )?)
@@ -1006,7 +1047,7 @@ struct MpcArgs {
     position_indices: [usize; 2],
 }
 
-fn new_mpc<const NX: usize, const NU: usize>(
+fn new_mpc<NX: Dim, NU: Dim>(
     p: &AnyProblem,
     specs: &[Arc<Spec>],
     tightening: Option<&Tightening>,
@@ -1015,26 +1056,27 @@ fn new_mpc<const NX: usize, const NU: usize>(
     a: &MpcArgs,
 ) -> CoreResult<AnyMpc>
 where
-    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU> + SafePair<NX, NU>,
 {
-    let p = problem_of::<Const<NX>, Const<NU>>(p)?;
-    let per_knot = 40 * std::mem::size_of::<Matrix<NX, NX>>();
+    let p = problem_of::<NX, NU>(p)?;
+    let per_knot = 40 * p.dims().nx() * p.dims().nx() * std::mem::size_of::<f64>();
     crate::convert::check_allocation("horizon", p.horizon() + 1, per_knot)?;
     let mpc = MpcSettings {
         iterations: a.iterations,
         initial_iterations: a.initial_iterations,
-        goal: a.goal.vector("goal", Const::<NX>)?,
+        goal: a.goal.vector("goal", p.dims().nx)?,
         goal_indices: a.goal_indices.clone(),
         goal_radius: a.goal_radius,
         position_indices: a.position_indices,
     };
     let m = CoreMpc::new(
         p,
-        typed_constraints::<NX, NU>(specs)?,
+        typed_constraints(specs, p.dims())?,
         vec![],
         settings,
-        tightening.map(|t| t.build::<NX, NU>()).transpose()?,
-        sigma_w.matrix("sigma_w", Const::<NX>, Const::<NX>)?,
+        tightening.map(|t| t.build(p.dims())).transpose()?,
+        sigma_w.matrix("sigma_w", p.dims().nx, p.dims().nx)?,
         mpc,
     )?;
     Ok(<Dispatch as SafePair<NX, NU>>::wrap_mpc(m))
@@ -1049,9 +1091,10 @@ struct EpisodeOut {
     us: Vec<f64>,
 }
 
-fn run_mpc<const NX: usize, const NU: usize>(m: &mut AnyMpc, seed: u64) -> CoreResult<EpisodeOut>
+fn run_mpc<NX: Dim, NU: Dim>(m: &mut AnyMpc, seed: u64) -> CoreResult<EpisodeOut>
 where
-    Dispatch: Pair<Const<NX>, Const<NU>> + SafePair<NX, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU> + SafePair<NX, NU>,
 {
     let m = <Dispatch as SafePair<NX, NU>>::mpc(m).ok_or_else(|| internal_mismatch("mpc"))?;
     let e = m.run_episode(seed)?;
@@ -1149,7 +1192,7 @@ impl Mpc {
         };
         let t = tightening.as_ref().map(|t| t.get());
         let inner = Problem::read(&p.inner, |q| {
-            with_compiled!("Safe-CDDP", nx, nu, new_mpc(q, &specs, t, &sigma_w, settings, &args))
+            with_dims!(nx, nu, new_mpc(q, &specs, t, &sigma_w, settings, &args))
         })?;
         Ok(Self { inner, nx, nu })
     }
@@ -1160,7 +1203,7 @@ impl Mpc {
         let (nx, nu) = (self.nx, self.nu);
         let inner = &mut self.inner;
         let e =
-            py.detach(|| -> CoreResult<EpisodeOut> { with_compiled!("Safe-CDDP", nx, nu, run_mpc(inner, seed)) })?;
+            py.detach(|| -> CoreResult<EpisodeOut> { with_dims!(nx, nu, run_mpc(inner, seed)) })?;
         Ok(Episode {
             success: e.success,
             steps: e.steps,

@@ -169,12 +169,49 @@ def test_position_terms_need_a_compiled_state_size() -> None:
     assert e.value.field == "terminal_cost"
 
 
-def test_safe_cddp_needs_a_compiled_pair() -> None:
-    rng = np.random.default_rng(3)
-    problem = lq_problem(*random_lq(rng, 7, 3), 5)
-    with pytest.raises(ddpkit.ShapeError, match=r"\(7, 3\).*Safe-CDDP.*\(3, 2\)") as e:
-        ddpkit.SafeCddpSolver(problem, [])
-    assert e.value.field == "(nx, nu)"
+def test_safe_cddp_and_mpc_at_run_time_size_match_compiled_size() -> None:
+    # The point robot (4, 2) at its compiled size, and the same problem as a run-time-size
+    # (5, 2) problem whose fifth state is decoupled and unweighted: the same trajectory.
+    import ddpkit as d
+
+    dt = 0.05
+    A4 = np.eye(4)
+    A4[0, 2] = A4[1, 3] = dt
+    B4 = np.zeros((4, 2))
+    B4[0, 0] = B4[1, 1] = 0.5 * dt * dt
+    B4[2, 0] = B4[3, 1] = dt
+    A5 = np.eye(5)
+    A5[:4, :4] = A4
+    B5 = np.zeros((5, 2))
+    B5[:4] = B4
+    goal4 = np.array([3.0, 3.0, 0.0, 0.0])
+    goal5 = np.append(goal4, 0.0)
+
+    def problem(A, B, goal):
+        n = A.shape[0]
+        qf = np.diag([100.0, 100.0, 10.0, 10.0, 0.0][:n])
+        return d.Problem(np.zeros(n), d.LinearDynamics(A, B), d.QuadraticCost(np.zeros((n, n)), 0.1 * np.eye(2)),
+                         d.QuadraticTerminal(qf, goal), 100, u_min=-0.8, u_max=0.8)
+
+    circle = d.Circle([1.5, 1.4], 0.5, indices=(0, 1))
+    fixed = d.SafeCddpSolver(problem(A4, B4, goal4), [circle]).solve()
+    dynamic = d.SafeCddpSolver(problem(A5, B5, goal5), [circle]).solve()
+    assert fixed.status == dynamic.status == "converged"
+    assert dynamic.max_violation <= 1e-8
+    np.testing.assert_allclose(dynamic.xs[:, :4], fixed.xs, atol=1e-7)
+    np.testing.assert_allclose(dynamic.us, fixed.us, atol=1e-7)
+
+    # A tightening and an MPC episode at the run-time size.
+    sigma5 = np.diag([1e-5, 1e-5, 1e-6, 1e-6, 1e-8])
+    t = d.Tightening(0.95, sigma5)
+    mpc = d.Mpc(problem(A5, B5, goal5), [circle], goal=goal5, sigma_w=sigma5, tightening=t,
+                iterations=5, initial_iterations=30)
+    episode = mpc.run_episode(3)
+    assert episode.collisions == 0
+    assert episode.xs.shape[1] == 5
+    # Sizes that disagree are errors naming the argument.
+    with pytest.raises(d.ShapeError, match="sigma_w"):
+        d.SafeCddpSolver(problem(A5, B5, goal5), [circle], tightening=d.Tightening(0.95, np.eye(4) * 1e-5))
 
 
 # ------------------------------------------------------------------------------------------------

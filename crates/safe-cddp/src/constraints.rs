@@ -35,10 +35,6 @@ use parry2d_f64::query::PointQuery;
 
 use crate::Constraint;
 
-fn check_indices<const NX: usize>(indices: [usize; 2]) -> Result<()> {
-    check_indices_in(indices, Some(NX))
-}
-
 /// Checks position indices against `nx` (`None`: a run-time size, checked when the solver is
 /// built, see [`Constraint::check_sizes`]).
 fn check_indices_in(indices: [usize; 2], nx: Option<usize>) -> Result<()> {
@@ -56,6 +52,13 @@ fn check_indices_in(indices: [usize; 2], nx: Option<usize>) -> Result<()> {
         return Err(Error::invalid("indices", "the two position indices must differ"));
     }
     Ok(())
+}
+
+/// Checks three distinct position indices against `nx` (`None`: checked when the solver is built).
+fn check_indices3(indices: [usize; 3], nx: Option<usize>) -> Result<()> {
+    check_indices_in([indices[0], indices[1]], nx)?;
+    check_indices_in([indices[0], indices[2]], nx)?;
+    check_indices_in([indices[1], indices[2]], nx)
 }
 
 fn nonneg(field: &str, v: f64) -> Result<f64> {
@@ -334,13 +337,14 @@ where
 /// of parry2d). The gradient is the unit vector between the position and its closest boundary
 /// point (pointing out of the polygon), and on the boundary the normal of the closest feature.
 #[derive(Debug, Clone)]
-pub struct ConvexPolygon<const NX: usize> {
+pub struct ConvexPolygon<NX: Dim> {
     shape: parry2d_f64::shape::ConvexPolygon,
     margin: f64,
     indices: [usize; 2],
+    states: PhantomData<NX>,
 }
 
-impl<const NX: usize> ConvexPolygon<NX> {
+impl<NX: Dim> ConvexPolygon<NX> {
     /// The convex hull of `vertices` (at least three, not collinear), inflated by `margin >= 0`.
     /// Allocates the polygon.
     pub fn new(vertices: &[[f64; 2]], margin: f64, indices: [usize; 2]) -> Result<Self> {
@@ -359,11 +363,12 @@ impl<const NX: usize> ConvexPolygon<NX> {
             .collect();
         let shape = parry2d_f64::shape::ConvexPolygon::from_convex_hull(&pts)
             .ok_or_else(|| Error::invalid("vertices", "degenerate polygon (collinear or repeated vertices)"))?;
-        check_indices::<NX>(indices)?;
+        check_indices_in(indices, NX::try_to_usize())?;
         Ok(Self {
             shape,
             margin: nonneg("margin", margin)?,
             indices,
+            states: PhantomData,
         })
     }
 
@@ -393,33 +398,39 @@ impl<const NX: usize> ConvexPolygon<NX> {
     }
 }
 
-impl<const NX: usize, const NU: usize> Constraint<Const<NX>, Const<NU>> for ConvexPolygon<NX> {
+impl<NX: Dim, NU: Dim> Constraint<NX, NU> for ConvexPolygon<NX>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     fn dim(&self) -> usize {
         1
     }
     fn depends_on_control(&self) -> bool {
         false
     }
-    fn evaluate(&self, _t: usize, x: &Vector<NX>, _u: &Vector<NU>, g: &mut [f64]) {
+    fn evaluate(&self, _t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, g: &mut [f64]) {
         let [i, j] = self.indices;
         g[0] = self.margin - self.signed_distance([x[i], x[j]]).0;
     }
     fn jacobians(
         &self,
         _t: usize,
-        x: &Vector<NX>,
-        _u: &Vector<NU>,
+        x: &VectorN<NX>,
+        _u: &VectorN<NU>,
         g: &mut [f64],
-        g_x: &mut [Vector<NX>],
-        g_u: &mut [Vector<NU>],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
     ) {
         let [i, j] = self.indices;
         let (sd, n) = self.signed_distance([x[i], x[j]]);
         g[0] = self.margin - sd;
-        g_x[0] = Vector::zeros();
+        g_x[0].fill(0.0);
         g_x[0][i] = -n[0];
         g_x[0][j] = -n[1];
-        g_u[0] = Vector::zeros();
+        g_u[0].fill(0.0);
+    }
+    fn check_sizes(&self, nx: usize, _nu: usize) -> Result<()> {
+        check_indices_in(self.indices, Some(nx))
     }
 }
 
@@ -452,24 +463,26 @@ impl<const NX: usize, const NU: usize> Constraint<Const<NX>, Const<NU>> for Conv
 /// assert!((g[0] + 0.2).abs() < 1e-12);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Cylinder<const NX: usize> {
+pub struct Cylinder<NX: Dim> {
     center: [f64; 2],
     radius: f64,
     height: f64,
     band: f64,
     indices: [usize; 3],
+    states: PhantomData<NX>,
 }
 
-impl<const NX: usize> Cylinder<NX> {
+impl<NX: Dim> Cylinder<NX>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
     /// A cylinder of `radius` and `height` at `center` on the position
     /// `(x[indices[0]], x[indices[1]], x[indices[2]])` (z up), its rim smoothed over a band
     /// `band > 0` (m, e.g. 0.02). Errors name the field.
     pub fn new(center: [f64; 2], radius: f64, height: f64, band: f64, indices: [usize; 3]) -> Result<Self> {
         check_finite("center", center.iter())?;
         check_finite("height", [height].iter())?;
-        check_indices::<NX>([indices[0], indices[1]])?;
-        check_indices::<NX>([indices[0], indices[2]])?;
-        check_indices::<NX>([indices[1], indices[2]])?;
+        check_indices3(indices, NX::try_to_usize())?;
         if !(band.is_finite() && band > 0.0) {
             return Err(Error::invalid("band", format!("must be finite and > 0, got {band}")));
         }
@@ -479,6 +492,7 @@ impl<const NX: usize> Cylinder<NX> {
             height,
             band,
             indices,
+            states: PhantomData,
         })
     }
     /// The centre of the base.
@@ -494,12 +508,12 @@ impl<const NX: usize> Cylinder<NX> {
         self.height
     }
     /// Whether the point `x` is inside the (unsmoothed) cylinder.
-    pub fn contains(&self, x: &Vector<NX>) -> bool {
+    pub fn contains(&self, x: &VectorN<NX>) -> bool {
         let [i, j, k] = self.indices;
         (x[i] - self.center[0]).hypot(x[j] - self.center[1]) < self.radius && x[k] < self.height
     }
     /// `g`, `dg/d(px, py, pz)`.
-    fn terms(&self, x: &Vector<NX>) -> (f64, [f64; 3]) {
+    fn terms(&self, x: &VectorN<NX>) -> (f64, [f64; 3]) {
         let [i, j, k] = self.indices;
         let (ex, ey) = (x[i] - self.center[0], x[j] - self.center[1]);
         let d = ex.hypot(ey);
@@ -520,32 +534,38 @@ impl<const NX: usize> Cylinder<NX> {
     }
 }
 
-impl<const NX: usize, const NU: usize> Constraint<Const<NX>, Const<NU>> for Cylinder<NX> {
+impl<NX: Dim, NU: Dim> Constraint<NX, NU> for Cylinder<NX>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
     fn dim(&self) -> usize {
         1
     }
     fn depends_on_control(&self) -> bool {
         false
     }
-    fn evaluate(&self, _t: usize, x: &Vector<NX>, _u: &Vector<NU>, g: &mut [f64]) {
+    fn evaluate(&self, _t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, g: &mut [f64]) {
         g[0] = self.terms(x).0;
     }
     fn jacobians(
         &self,
         _t: usize,
-        x: &Vector<NX>,
-        _u: &Vector<NU>,
+        x: &VectorN<NX>,
+        _u: &VectorN<NU>,
         g: &mut [f64],
-        g_x: &mut [Vector<NX>],
-        g_u: &mut [Vector<NU>],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
     ) {
         let (v, d) = self.terms(x);
         g[0] = v;
-        g_x[0] = Vector::zeros();
+        g_x[0].fill(0.0);
         for (c, &i) in self.indices.iter().enumerate() {
             g_x[0][i] = d[c];
         }
-        g_u[0] = Vector::zeros();
+        g_u[0].fill(0.0);
+    }
+    fn check_sizes(&self, nx: usize, _nu: usize) -> Result<()> {
+        check_indices3(self.indices, Some(nx))
     }
 }
 

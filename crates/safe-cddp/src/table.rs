@@ -319,7 +319,7 @@ pub fn quadrotor(noise: f64) -> Result<Scenario<12, 4>> {
     let mut constraints: Vec<Arc<dyn Constraint<U12, U4>>> = Vec::new();
     let mut obstacles = Vec::new();
     for c in cylinders {
-        constraints.push(Arc::new(Cylinder::<12>::new(
+        constraints.push(Arc::new(Cylinder::<ddp_core::dims::Const<12>>::new(
             [c[0], c[1]],
             c[2],
             c[3],

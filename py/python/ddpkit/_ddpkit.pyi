@@ -4,8 +4,10 @@ Arrays are accepted as anything ``numpy.asarray(..., dtype=float64)`` understand
 real dtype, lists, tuples, scalars) and returned as new float64 ``numpy.ndarray``\\ s.
 
 Any size: :class:`LinearDynamics`, :class:`QuadraticCost`, :class:`QuadraticTerminal`,
-:class:`ControlSquared`, control bounds, :class:`Problem` and :class:`Solver` work with any
-``nx >= 1`` states and ``nu >= 1`` controls (up to 1024 and 512). The built-in robots' sizes
+:class:`ControlSquared`, control bounds, :class:`Problem`, :class:`Solver`,
+:class:`SafeCddpSolver`, :class:`Tightening`, :class:`Mpc` and the constraints work with any
+``nx >= 1`` states and ``nu >= 1`` controls (up to 1024 and 512; Safe-CDDP's per-step QP takes
+at most 63 controls). The built-in robots' sizes
 (:func:`supported_dimensions`) run on fixed-size matrices; every other size on run-time-size
 matrices, through the same Rust code. A 7-state, 3-control linear system::
 
@@ -631,9 +633,8 @@ def default_settings(kind: str = "Solver") -> dict[str, Any]:
 
 def supported_dimensions() -> list[tuple[int, int]]:
     """The ``(nx, nu)`` pairs compiled into this build: the fixed-size fast path of the built-in
-    robots, and the sizes :class:`SafeCddpSolver` and :class:`Mpc` support. Every other size
-    ``nx >= 1, nu >= 1`` (up to 1024 states and 512 controls) works with :class:`Solver` at
-    run-time sizes."""
+    robots. Every other size ``nx >= 1, nu >= 1`` (up to 1024 states and 512 controls) runs at
+    run-time sizes, through the same Rust code."""
 
 # --------------------------------------------------------------------------------------------
 # Bezier curves, splines, motion profiles (Queen Elizabeth's School (2022)); public as
@@ -1082,8 +1083,7 @@ class SafeCddpSolver:
     ``qp_method`` ``"fast"`` (unconstrained / active-set / Clarabel) or ``"clarabel"``;
     ``warm_up`` enables the augmented-Lagrangian warm-up. The workspace is allocated once;
     :meth:`solve` releases the GIL. Defaults: ``safe_cddp::Settings::default()`` (also
-    :func:`default_settings` ``("SafeCddpSolver")``). The problem's ``(nx, nu)`` must be one of
-    :func:`supported_dimensions` (a ``ShapeError`` otherwise).
+    :func:`default_settings` ``("SafeCddpSolver")``). Any ``(nx, nu)`` (see the module docs).
     """
 
     def __new__(

@@ -1,4 +1,4 @@
-//! Bindings of the `bezier` crate (paper 002): curves of any degree, splines through waypoints,
+//! Bindings of the `bezier` crate (Queen Elizabeth's School 2022): curves of any degree, splines through waypoints,
 //! the sigmoid motion profile, time-parametrised trajectories, the paper's jerk and curvature
 //! costs and the direct optimiser, with numpy arrays in and out.
 //!
@@ -337,7 +337,7 @@ impl Curve {
     }
 }
 
-/// A Bézier curve of any degree on `t in [0, 1]` (paper 002: De Casteljau / Bernstein form).
+/// A Bézier curve of any degree on `t in [0, 1]` (De Casteljau / Bernstein form, as in Queen Elizabeth's School 2022).
 #[pyclass(module = "ddpkit._ddpkit", name = "Bezier", frozen)]
 #[derive(Clone, Debug)]
 pub struct BezierCurve {
@@ -1332,7 +1332,7 @@ fn cost_args(
     })
 }
 
-/// The objective of paper 002 for `spline` traversed with a sigmoid profile:
+/// The objective of Queen Elizabeth's School (2022) for `spline` traversed with a sigmoid profile:
 /// `jerk_weight * J + curvature_weight * K`, with `J` the jerk (`"integral"`: the full 2D jerk
 /// `int |x'''|^2 dT`; `"discrete"`: the paper's tangential second differences) and `K` the sum
 /// of `|curvature|` at `samples` uniform times.

@@ -1,4 +1,4 @@
-//! IDNP with adaptive grid refinement (paper 001, crate `idnp`), public as `ddpkit.idnp`.
+//! IDNP with adaptive grid refinement (Richter et al. 2023, crate `idnp`), public as `ddpkit.idnp`.
 //!
 //! The scene is the crate's benchmark ([`::idnp::scene::Scene::narrow_passage`]): a floating base
 //! with a 2-link arm, four rectangles with a passage narrower than the coarse DP grid, and a goal
@@ -273,7 +273,7 @@ impl IdnpRun {
     }
 }
 
-/// The experiment of paper 001, Section V; see :func:`ddpkit.idnp.experiment`.
+/// The experiment of Richter et al. (2023), Section V; see :func:`ddpkit.idnp.experiment`.
 #[pyfunction]
 #[pyo3(signature = (n = 200, seed = 1, max_iterations = 15, optimizer_iterations = 400, uniform = false))]
 pub fn idnp_experiment(

@@ -1,6 +1,6 @@
 //! `ddpkit.sim`: the sim2d simulation from Python. One scenario run (a TOML scenario, a planner,
 //! physics, lidar, costmap and planning in the loop) with its trajectory and metrics as numpy
-//! arrays, and the Safe-CDDP Turtlebot experiment (paper 003, §IV-C). The GIL is released while
+//! arrays, and the Safe-CDDP Turtlebot experiment (Alcan and Kyrki 2022, §IV-C). The GIL is released while
 //! the simulation runs; every [`sim2d::Error`] becomes a `ddpkit.DdpError` subclass whose
 //! `field` names the offending input.
 //!

@@ -48,7 +48,7 @@ fn costmaps(obj: &Bound<'_, PyAny>, side: usize) -> PyResult<(Vec<u8>, Vec<usize
     Ok((data, dims))
 }
 
-/// The sub-goal network of paper 000 (DDPEN), running in Rust.
+/// The sub-goal network of DDPEN (Gamayunov et al. 2023), running in Rust.
 #[pyclass(module = "ddpkit._ddpkit", name = "SubgoalModel", frozen)]
 pub struct SubgoalModel {
     inner: Arc<Model>,

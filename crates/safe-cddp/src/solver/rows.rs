@@ -181,27 +181,28 @@ where
                     }
                 }
             }
-            // Control bounds: u_i - hi_i <= 0 and lo_i - u_i <= 0.
-            for i in 0..self.zero_u.len() {
-                let (up, lo) = (k * m + self.bound_offset + 2 * i, k * m + self.bound_offset + 2 * i + 1);
-                let (hi_v, lo_v) = match bounds {
-                    Some(b) => (b.upper[i], b.lower[i]),
-                    None => (f64::INFINITY, f64::NEG_INFINITY),
-                };
-                self.present[up] = hi_v.is_finite();
-                self.g[up] = us[k][i] - hi_v;
-                self.c[up].fill(0.0);
-                self.c[up][i] = 1.0;
-                self.gu[up].copy_from(&self.c[up]);
-                self.d[up].fill(0.0);
-                self.gx[up].fill(0.0);
-                self.present[lo] = lo_v.is_finite();
-                self.g[lo] = lo_v - us[k][i];
-                self.c[lo].fill(0.0);
-                self.c[lo][i] = -1.0;
-                self.gu[lo].copy_from(&self.c[lo]);
-                self.d[lo].fill(0.0);
-                self.gx[lo].fill(0.0);
+            self.linearize_bounds(k, bounds, &us[k]);
+        }
+    }
+
+    /// The control-bound rows of knot `k`: `u_i - hi_i <= 0` and `lo_i - u_i <= 0` (absent where
+    /// the bound is infinite or there are none).
+    fn linearize_bounds(&mut self, k: usize, bounds: Option<&ControlBounds<NU>>, u: &VectorN<NU>) {
+        let base = k * self.m + self.bound_offset;
+        for i in 0..u.len() {
+            let (up, lo) = (base + 2 * i, base + 2 * i + 1);
+            let (hi_v, lo_v) = match bounds {
+                Some(b) => (b.upper[i], b.lower[i]),
+                None => (f64::INFINITY, f64::NEG_INFINITY),
+            };
+            for (row, present, g, sign) in [(up, hi_v.is_finite(), u[i] - hi_v, 1.0), (lo, lo_v.is_finite(), lo_v - u[i], -1.0)] {
+                self.present[row] = present;
+                self.g[row] = g;
+                self.c[row].fill(0.0);
+                self.c[row][i] = sign;
+                self.gu[row].copy_from(&self.c[row]);
+                self.d[row].fill(0.0);
+                self.gx[row].fill(0.0);
             }
         }
     }

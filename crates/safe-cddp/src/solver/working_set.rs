@@ -13,7 +13,7 @@
 //! ```
 
 use ddp_core::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
-use ddp_core::kernels::{cholesky_in_place, cholesky_solve_in_place};
+use ddp_core::kernels::{cholesky_in_place, cholesky_solve_in_place, copy};
 use ddp_core::solver::{Gains, GainsInfo, NotPositiveDefinite, QBlocks};
 
 use super::rows::Rows;
@@ -119,18 +119,44 @@ where
     ) -> Result<GainsInfo, NotPositiveDefinite> {
         q.factor()?;
         let w = &mut *self.kkt;
-        let rows = &mut *self.rows;
-        let nu = w.rows_w.len();
-        let m = rows.m;
-        w.qi_qu.copy_from(&q.q_u);
+        copy(&mut w.qi_qu, &q.q_u);
         cholesky_solve_in_place(&q.chol, &mut w.qi_qu);
-        w.qi_qux.copy_from(&q.q_ux_r);
+        copy(&mut w.qi_qux, &q.q_ux_r);
         cholesky_solve_in_place(&q.chol, &mut w.qi_qux);
+        self.active_set(k);
+        let mw = self.working_set(k, q);
+        let mw = self.kkt_solution(mw, k_ff, k_fb)?;
+        let (w, rows) = (&mut *self.kkt, &mut *self.rows);
+        let nu = w.rows_w.len();
+        let base = k * rows.m;
+        for r in 0..mw {
+            rows.lambda[base + w.rows_w[r]] = w.lambda[r];
+            w.ws[k * nu + r] = w.rows_w[r];
+        }
+        w.ws_len[k] = mw;
+        w.active += mw;
+        // The projected gradient Q_u + C_W^T lambda measures stationarity.
+        copy(&mut w.hci, &q.q_u);
+        w.hci.gemv_tr(1.0, &w.cw, &w.lambda, 1.0);
+        let gradient = w.hci.norm_squared();
+        copy(&mut w.q_u[k], &q.q_u);
+        copy(&mut w.q_ux[k], &q.q_ux);
+        copy(&mut w.q_uu_r[k], &q.q_uu_r);
+        Ok(GainsInfo { gradient, exact: false })
+    }
+}
 
-        // Active set (g~ > -eps), most active first.
-        let base = k * m;
+impl<NX: Dim, NU: Dim> KktGains<'_, NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// The active set of knot `k`: rows with `g~ > -epsilon`, most active first (into `cand`);
+    /// clears the knot's multipliers.
+    fn active_set(&mut self, k: usize) {
+        let (w, rows) = (&mut *self.kkt, &mut *self.rows);
+        let base = k * rows.m;
         w.cand.clear();
-        for i in 0..m {
+        for i in 0..rows.m {
             let idx = base + i;
             if i >= self.first_row && rows.present[idx] {
                 let g = rows.g[idx] + rows.margin[idx];
@@ -141,11 +167,18 @@ where
             rows.lambda[idx] = 0.0;
         }
         w.cand.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+    }
 
-        // Working set: at most nu rows, independent in the Q_uu^{-1} metric.
-        w.cw.fill(0.0); // rows C_w^T
-        w.dw.fill(0.0); // rows D_w^T
-        w.hw.fill(0.0); // columns Q_uu^{-1} C_w
+    /// The working set: at most `nu` active rows, taken greedily, independent in the
+    /// `Q_uu^{-1}` metric (rows `C_W^T` in `cw`, `D_W^T` in `dw`, columns `Q_uu^{-1} C_W` in
+    /// `hw`). Returns its size.
+    fn working_set(&mut self, k: usize, q: &QBlocks<NX, NU>) -> usize {
+        let (w, rows) = (&mut *self.kkt, &*self.rows);
+        let nu = w.rows_w.len();
+        let base = k * rows.m;
+        w.cw.fill(0.0);
+        w.dw.fill(0.0);
+        w.hw.fill(0.0);
         w.rows_w.iter_mut().for_each(|r| *r = usize::MAX);
         let q_scale = q.q_uu_r.amax().recip();
         let mut mw = 0;
@@ -155,7 +188,7 @@ where
             }
             let i = w.cand[c].1;
             let ci = &rows.c[base + i];
-            w.hci.copy_from(ci);
+            copy(&mut w.hci, ci);
             cholesky_solve_in_place(&q.chol, &mut w.hci);
             let norm = ci.dot(&w.hci);
             if norm.is_nan() || norm <= 1e-14 * (1.0 + q_scale) {
@@ -172,7 +205,19 @@ where
                 w.hw.column_mut(mw).fill(0.0);
             }
         }
-        // KKT solution (10)-(12), pruning negative multipliers one at a time.
+        mw
+    }
+
+    /// The KKT solution (10)-(12) on the working set of size `mw`, pruning the most negative
+    /// multiplier one at a time. Writes `k`, `K` and `lambda`; returns the final working-set size.
+    fn kkt_solution(
+        &mut self,
+        mut mw: usize,
+        k_ff: &mut VectorN<NU>,
+        k_fb: &mut MatrixN<NU, NX>,
+    ) -> Result<usize, NotPositiveDefinite> {
+        let w = &mut *self.kkt;
+        let nu = w.rows_w.len();
         loop {
             // S = C_W Q_uu^-1 C_W^T, the identity beyond the working set.
             w.s.gemm(1.0, &w.cw, &w.hw, 0.0);
@@ -193,15 +238,15 @@ where
             }
             if worst.0 == usize::MAX {
                 // Lambda = S^-1 (D_W - C_W Q_uu^-1 Q_ux)   (11)
-                w.big_lambda.copy_from(&w.dw);
+                copy(&mut w.big_lambda, &w.dw);
                 w.big_lambda.gemm(-1.0, &w.cw, &w.qi_qux, 1.0);
                 cholesky_solve_in_place(&w.s, &mut w.big_lambda);
                 // d = -Q_uu^-1 Q_u - H_W lambda,  K = -Q_uu^-1 Q_ux - H_W Lambda   (12)
-                k_ff.copy_from(&w.qi_qu);
+                copy(k_ff, &w.qi_qu);
                 k_ff.gemv(-1.0, &w.hw, &w.lambda, -1.0);
-                k_fb.copy_from(&w.qi_qux);
+                copy(k_fb, &w.qi_qux);
                 k_fb.gemm(-1.0, &w.hw, &w.big_lambda, -1.0);
-                break;
+                return Ok(mw);
             }
             // Remove row worst.0 by moving the last working row into its place.
             let r = worst.0;
@@ -218,20 +263,6 @@ where
             w.rows_w[last] = usize::MAX;
             mw -= 1;
         }
-        for r in 0..mw {
-            rows.lambda[base + w.rows_w[r]] = w.lambda[r];
-            w.ws[k * nu + r] = w.rows_w[r];
-        }
-        w.ws_len[k] = mw;
-        w.active += mw;
-        // The projected gradient Q_u + C_W^T lambda measures stationarity.
-        w.hci.copy_from(&q.q_u);
-        w.hci.gemv_tr(1.0, &w.cw, &w.lambda, 1.0);
-        let gradient = w.hci.norm_squared();
-        w.q_u[k].copy_from(&q.q_u);
-        w.q_ux[k].copy_from(&q.q_ux);
-        w.q_uu_r[k].copy_from(&q.q_uu_r);
-        Ok(GainsInfo { gradient, exact: false })
     }
 }
 

@@ -268,5 +268,11 @@ fn sizes_that_disagree_or_are_out_of_range_are_errors_naming_the_argument() {
     let mut s = Solver::new(&problem, Settings::default()).unwrap();
     let e = err(s.solve(&other).unwrap_err());
     assert!(e.contains("problem") && e.contains("(8, 3)"), "{e}");
+    // Vectors of another size in a rollout or a cost.
+    let mut xs = vec![DVector::zeros(7); 11];
+    let e = err(problem.rollout(&vec![DVector::zeros(2); 10], &mut xs).unwrap_err());
+    assert!(e.contains("us[0]"), "{e}");
+    let e = err(problem.cost(&vec![DVector::zeros(6); 11], &vec![DVector::zeros(3); 10]).unwrap_err());
+    assert!(e.contains("xs[0]"), "{e}");
     let _ = VectorN::<Dyn>::zeros(1);
 }

@@ -306,6 +306,7 @@ where
     /// Simulates `us` from `x0` into `xs` (lengths `N` and `N + 1`).
     pub fn rollout(&self, us: &[VectorN<NU>], xs: &mut [VectorN<NX>]) -> Result<()> {
         self.check_lengths(us.len(), xs.len())?;
+        self.check_sizes(us, xs)?;
         xs[0].copy_from(&self.x0);
         for (k, knot) in self.knots.iter().enumerate() {
             let (head, tail) = xs.split_at_mut(k + 1);
@@ -317,6 +318,7 @@ where
     /// The total cost of a trajectory.
     pub fn cost(&self, xs: &[VectorN<NX>], us: &[VectorN<NU>]) -> Result<f64> {
         self.check_lengths(us.len(), xs.len())?;
+        self.check_sizes(us, xs)?;
         let running: f64 = self
             .knots
             .iter()
@@ -324,6 +326,26 @@ where
             .map(|(k, m)| m.cost.value(&xs[k], &us[k]))
             .sum();
         Ok(running + self.terminal.value(&xs[self.knots.len()]))
+    }
+
+    /// Every state and control of the problem's size (run-time sizes can differ per vector).
+    fn check_sizes(&self, us: &[VectorN<NU>], xs: &[VectorN<NX>]) -> Result<()> {
+        let (nx, nu) = (self.dims.nx(), self.dims.nu());
+        if let Some(k) = us.iter().position(|u| u.len() != nu) {
+            return Err(Error::Shape {
+                field: format!("us[{k}]"),
+                got: format!("({},)", us[k].len()),
+                expected: format!("({nu},)"),
+            });
+        }
+        if let Some(k) = xs.iter().position(|x| x.len() != nx) {
+            return Err(Error::Shape {
+                field: format!("xs[{k}]"),
+                got: format!("({},)", xs[k].len()),
+                expected: format!("({nx},)"),
+            });
+        }
+        Ok(())
     }
 
     fn check_lengths(&self, nu: usize, nx: usize) -> Result<()> {

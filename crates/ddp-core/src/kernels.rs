@@ -6,7 +6,7 @@
 //! bounds checks vanish (nalgebra's generic products go through stride-aware loops that the
 //! compiler does not fully unroll for tiny sizes). Each kernel is checked against nalgebra.
 
-use nalgebra::{Dim, RawStorage, RawStorageMut};
+use nalgebra::Dim;
 
 use crate::dims::{Allocator, DefaultAllocator, MatrixN};
 
@@ -219,24 +219,29 @@ where
 /// Cholesky factorisation `A = L L^T` in place: the lower triangle of `a` becomes `L` (the
 /// strict upper triangle is left as it was). `false` when `A` is not positive definite.
 #[inline(always)]
-pub fn cholesky_in_place<N: Dim, S: RawStorageMut<f64, N, N>>(a: &mut nalgebra::Matrix<f64, N, N, S>) -> bool {
+pub fn cholesky_in_place<N: Dim>(a: &mut MatrixN<N, N>) -> bool
+where
+    DefaultAllocator: Allocator<N, N>,
+{
+    // Column-major storage: L(i, k) = l[k n + i].
     let n = a.nrows();
+    let l = a.as_mut_slice();
     for j in 0..n {
-        let mut d = a[(j, j)];
+        let mut d = l[j * n + j];
         for k in 0..j {
-            d -= a[(j, k)] * a[(j, k)];
+            d -= l[k * n + j] * l[k * n + j];
         }
         if !(d > 0.0) || !d.is_finite() {
             return false;
         }
         let d = d.sqrt();
-        a[(j, j)] = d;
+        l[j * n + j] = d;
         for i in j + 1..n {
-            let mut s = a[(i, j)];
+            let mut s = l[j * n + i];
             for k in 0..j {
-                s -= a[(i, k)] * a[(j, k)];
+                s -= l[k * n + i] * l[k * n + j];
             }
-            a[(i, j)] = s / d;
+            l[j * n + i] = s / d;
         }
     }
     true
@@ -244,25 +249,31 @@ pub fn cholesky_in_place<N: Dim, S: RawStorageMut<f64, N, N>>(a: &mut nalgebra::
 
 /// Solves `L L^T X = B` in place (`l` from [`cholesky_in_place`]), for every column of `b`.
 #[inline(always)]
-pub fn cholesky_solve_in_place<N: Dim, C: Dim, S1: RawStorage<f64, N, N>, S2: RawStorageMut<f64, N, C>>(
-    l: &nalgebra::Matrix<f64, N, N, S1>,
-    b: &mut nalgebra::Matrix<f64, N, C, S2>,
-) {
+pub fn cholesky_solve_in_place<N: Dim, C: Dim>(l: &MatrixN<N, N>, b: &mut MatrixN<N, C>)
+where
+    DefaultAllocator: Allocator<N, N> + Allocator<N, C>,
+{
     let n = l.nrows();
-    for c in 0..b.ncols() {
+    let cols = b.ncols();
+    let l = l.as_slice();
+    let b = b.as_mut_slice();
+    for c in 0..cols {
+        let x = &mut b[c * n..(c + 1) * n];
+        // Forward: L y = b.
         for i in 0..n {
-            let mut s = b[(i, c)];
+            let mut s = x[i];
             for k in 0..i {
-                s -= l[(i, k)] * b[(k, c)];
+                s -= l[k * n + i] * x[k];
             }
-            b[(i, c)] = s / l[(i, i)];
+            x[i] = s / l[i * n + i];
         }
+        // Backward: L^T x = y.
         for i in (0..n).rev() {
-            let mut s = b[(i, c)];
+            let mut s = x[i];
             for k in i + 1..n {
-                s -= l[(k, i)] * b[(k, c)];
+                s -= l[i * n + k] * x[k];
             }
-            b[(i, c)] = s / l[(i, i)];
+            x[i] = s / l[i * n + i];
         }
     }
 }

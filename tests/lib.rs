@@ -18,6 +18,9 @@ impl Lcg {
     }
 }
 
+/// Gains `K_k`, states `x_0 .. x_N` and controls `u_0 .. u_{N-1}` of an LQ solution.
+pub type LqSolution = (Vec<MatrixN<Dyn, Dyn>>, Vec<VectorN<Dyn>>, Vec<VectorN<Dyn>>);
+
 /// The discrete Riccati recursion of the LQ problem `x+ = A x + B u`, cost
 /// `sum 1/2 (x^T Q x + u^T R u) + 1/2 x_N^T Q_f x_N`: gains `K_k` (`u = K x`), and the rollout.
 pub fn riccati(
@@ -28,7 +31,7 @@ pub fn riccati(
     qf: &MatrixN<Dyn, Dyn>,
     x0: &VectorN<Dyn>,
     n: usize,
-) -> (Vec<MatrixN<Dyn, Dyn>>, Vec<VectorN<Dyn>>, Vec<VectorN<Dyn>>) {
+) -> LqSolution {
     let mut p = qf.clone();
     let mut gains = vec![MatrixN::<Dyn, Dyn>::zeros(b.ncols(), a.ncols()); n];
     for k in (0..n).rev() {

@@ -231,7 +231,8 @@ where
         for k in 0..j {
             d -= l[k * n + j] * l[k * n + j];
         }
-        if !(d > 0.0) || !d.is_finite() {
+        // Not positive definite, or NaN / inf: `d > 0` fails for NaN.
+        if d.is_nan() || d <= 0.0 || d.is_infinite() {
             return false;
         }
         let d = d.sqrt();

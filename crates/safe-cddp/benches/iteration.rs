@@ -19,7 +19,7 @@ use safe_cddp::constraints::Circle;
 use safe_cddp::qp::QpMethod;
 use safe_cddp::{Constraint, SafeCddpSolver, Settings, Tightening};
 
-fn car_n90() -> (Problem<U4, U2>, Vec<Arc<dyn Constraint<U4, U2>>>) {
+fn car_n90() -> (Problem<U4, U2>, safe_cddp::Constraints<U4, U2>) {
     let running = Arc::new(QuadraticCost::diagonal(&[0.0; 4], &[0.1, 0.1], Vector::zeros(), Vector::zeros()).unwrap());
     let terminal = Arc::new(
         QuadraticTerminal::diagonal(&[100.0, 100.0, 10.0, 10.0], Vector::<4>::new(3.0, 0.0, 0.0, 0.0)).unwrap(),

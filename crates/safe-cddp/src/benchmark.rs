@@ -20,7 +20,7 @@ use ddp_core::{ControlBounds, Dynamics, Error, Problem, Result, Vector};
 use serde::Deserialize;
 
 use crate::constraints::Circle;
-use crate::Constraint;
+use crate::{Constraint, Constraints};
 
 /// The cost of a benchmark problem.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -156,7 +156,7 @@ impl BenchmarkProblem {
     }
 
     /// The problem and its obstacle constraints for the 4-state models (`"car"`, `"point"`).
-    pub fn car_or_point(&self) -> Result<(Problem<U4, U2>, Vec<Arc<dyn Constraint<U4, U2>>>)> {
+    pub fn car_or_point(&self) -> Result<(Problem<U4, U2>, Constraints<U4, U2>)> {
         let dynamics: Arc<dyn Dynamics<U4, U2>> = match self.model.as_str() {
             "car" => Arc::new(Car::new(self.dt)?),
             "point" => Arc::new(DoubleIntegrator2D::new(self.dt)?),
@@ -172,7 +172,7 @@ impl BenchmarkProblem {
     }
 
     /// The problem and its obstacle constraints for `"unicycle"`.
-    pub fn unicycle(&self) -> Result<(Problem<U3, U2>, Vec<Arc<dyn Constraint<U3, U2>>>)> {
+    pub fn unicycle(&self) -> Result<(Problem<U3, U2>, Constraints<U3, U2>)> {
         if self.model != "unicycle" {
             return Err(Error::invalid(
                 "model",

@@ -17,6 +17,9 @@
 use ddp_core::dims::{Alloc, Const, DefaultAllocator, Dim, MatrixN, VectorN};
 use ddp_core::{Result, Vector};
 
+/// A list of shared constraints, as [`crate::SafeCddpSolver::new`] takes them.
+pub type Constraints<NX, NU> = Vec<std::sync::Arc<dyn Constraint<NX, NU>>>;
+
 /// A vector constraint `g(x, u) <= 0` with `dim()` rows. See the [module docs](self).
 ///
 /// ```

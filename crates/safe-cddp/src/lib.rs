@@ -55,7 +55,7 @@ pub mod solver;
 pub mod table;
 pub mod tightening;
 
-pub use constraint::{check_constraint_derivatives, Constraint, ConstraintDerivativeErrors};
+pub use constraint::{check_constraint_derivatives, Constraint, ConstraintDerivativeErrors, Constraints};
 pub use ddp_core::{Error, Result};
 pub use settings::{IterationLog, Report, Settings, Status};
 pub use solver::{IterationOutcome, SafeCddpSolver};

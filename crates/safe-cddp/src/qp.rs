@@ -319,7 +319,7 @@ where
             (a[i].clone(), b[i])
         } else {
             let j = (i - a.len()) / 2;
-            let sign = if (i - a.len()) % 2 == 0 { 1.0 } else { -1.0 };
+            let sign = if (i - a.len()).is_multiple_of(2) { 1.0 } else { -1.0 };
             let mut e = VectorN::<NU>::zeros_generic(nu, U1);
             e[j] = sign;
             (e, trust)

@@ -10,7 +10,9 @@ use safe_cddp::constraints::{
 };
 use safe_cddp::{check_constraint_derivatives, Constraint};
 
-fn all_constraints() -> Vec<(&'static str, Arc<dyn Constraint<U4, U2>>, bool)> {
+type Named = (&'static str, Arc<dyn Constraint<U4, U2>>, bool);
+
+fn all_constraints() -> Vec<Named> {
     // (name, constraint, whether add_hessian is implemented)
     vec![
         (

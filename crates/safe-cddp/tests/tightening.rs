@@ -180,7 +180,7 @@ proptest! {
 }
 
 /// The car of the iteration benchmark: N = 90, goal (3, 0) at rest, two discs (squared form).
-fn car_n90() -> (ddp_core::Problem<U4, U2>, Vec<Arc<dyn Constraint<U4, U2>>>) {
+fn car_n90() -> (ddp_core::Problem<U4, U2>, safe_cddp::Constraints<U4, U2>) {
     use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
     use ddp_core::models::Car;
     use ddp_core::{ControlBounds, Problem};

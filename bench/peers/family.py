@@ -33,10 +33,11 @@ untimed (CasADi builds its NLP lazily on the first solve), then `--repeats` time
 interleaved; the median is used.
 
 ddpkit "matches" a problem when its violation is <= 1e-6 and its cost is at most the better
-feasible peer's times (1 + 1e-6). Each miss is classified against that peer's solution: ddpkit
-infeasible; passing an obstacle on the other side (the angle swept around some obstacle's centre
-differs by more than pi); ending short of the goal (more than 5 cm further from it); or the same
-side with a higher cost. `--diagnose` also starts IPOPT from ddpkit's solution where ddpkit misses
+feasible peer's times (1 + 1e-6). Each miss is classified against that peer's solution, first
+match first: ddpkit infeasible; a long detour (ddpkit's path more than twice as long); passing an
+obstacle on the other side (the angle swept around some obstacle's centre differs by more than
+pi); ending short of the goal (more than 5 cm further from it); or the same side with a higher
+cost. `--diagnose` also starts IPOPT from ddpkit's solution where ddpkit misses
 (untimed), which tells a local minimum of the problem (IPOPT stays) from an early stop.
 
 casadi is only needed by `main` and `solve_problem`; the generator imports without it.
@@ -78,6 +79,8 @@ HEADING_NOISE = 0.5
 CLEARANCE = 0.05
 #: Attempts per problem before giving up on it.
 MAX_ATTEMPTS = 50
+#: A miss is a "long detour" when ddpkit's path is longer than this times the peer's.
+DETOUR = 2.0
 #: A cost gap counts as a match up to this (relative).
 MATCH_REL = 1e-6
 PEER_LABELS = {"ipopt": "CasADi + IPOPT", "fatrop": "CasADi + FATROP"}
@@ -197,6 +200,7 @@ def _judge(p: BenchProblem, xs: np.ndarray, us: np.ndarray) -> dict[str, Any]:
         "feasible": max(v.values()) <= FEASIBILITY_TOL,
         "goal_distance": float(np.hypot(*(xs[-1, :2] - p.x_goal[:2]))),
         "x_final": np.asarray(xs[-1], dtype=float).tolist(),
+        "path_length": float(np.sum(np.hypot(*np.diff(xs[:, :2], axis=0).T))),
         "winding": winding(xs, p.obstacles).tolist(),
     }
 
@@ -282,6 +286,8 @@ def compare_solutions(p: BenchProblem, solvers: dict[str, Any], peers: tuple[str
         out["pattern"] = "error"
     elif not d["feasible"]:
         out["pattern"] = "infeasible"
+    elif d["path_length"] > DETOUR * b["path_length"]:
+        out["pattern"] = "long detour"
     elif out["other_side"]:
         out["pattern"] = "other side of an obstacle"
     elif d["goal_distance"] > b["goal_distance"] + 0.05:
@@ -396,8 +402,10 @@ def print_summary(
     gaps = [r["rel_gap"] for r in records if r["solvers"]["ddpkit"].get("feasible")]
     print()
     print("relative cost gap histogram (ddpkit feasible):")
-    for label, c in histogram(gaps):
-        print(f"  {label:>15} {c:>4} {'#' * c}")
+    counts = histogram(gaps)
+    scale = max(1.0, max(c for _, c in counts) / 60.0)  # bars at most 60 wide
+    for label, c in counts:
+        print(f"  {label:>15} {c:>4} {'#' * math.ceil(c / scale)}")
     print()
     print("peers feasible: " + ", ".join(f"{k.upper()} {summaries['all'][f'{k}_feasible']}/{len(records)}" for k in peers)
           if records else "no problems")

@@ -122,10 +122,11 @@ PROBLEMS = PEERS.parent / "problems"
 PEER_COST = {"p2_car4": 1.1972797, "p3_point4": 1.8958999}
 
 
-def casadi_entry(p: Any, plugin: str) -> Optional[Entry]:
+def casadi_entry(p: Any, plugin: str, guess: Optional[tuple[np.ndarray, np.ndarray]] = None) -> Optional[Entry]:
     """CasADi + `plugin` ("ipopt" or "fatrop") on problem `p`; None without casadi. The `Opti`
     problem is built once (multiple shooting, `expand = True`, variables and constraints in stage
-    order as FATROP's structure detection needs) and every solve starts from the same guess."""
+    order as FATROP's structure detection needs) and every solve starts from the same guess:
+    `x0` repeated and zero controls, or `guess = (xs, us)`."""
     try:
         import casadi as ca
     except ImportError:
@@ -174,9 +175,9 @@ def casadi_entry(p: Any, plugin: str) -> Optional[Entry]:
 
     def solve() -> tuple[int, float, Optional[float]]:
         for k in range(n + 1):
-            opti.set_initial(xs_v[k], p.x0)
+            opti.set_initial(xs_v[k], p.x0 if guess is None else guess[0][k])
         for k in range(n):
-            opti.set_initial(us_v[k], np.zeros(nu))
+            opti.set_initial(us_v[k], np.zeros(nu) if guess is None else guess[1][k])
         try:
             sol = opti.solve()
             stats = sol.stats()
@@ -186,19 +187,29 @@ def casadi_entry(p: Any, plugin: str) -> Optional[Entry]:
             value = opti.debug.value
         xs = np.array([np.asarray(value(v)).reshape(nx) for v in xs_v])
         us = np.array([np.asarray(value(v)).reshape(nu) for v in us_v])
-        entry.solution = (xs, us, str(stats.get("return_status", stats.get("success"))))
+        status = stats.get("return_status", "")
+        if not isinstance(status, str):  # FATROP: an integer code, 0 on success
+            status = f"{'success' if stats.get('success') else 'failed'} (return_status {status})"
+        entry.solution = (xs, us, status)
         return int(stats.get("iter_count", -1)), p.objective(xs, us), None
 
     entry.solve = solve
     return entry
 
 
-def ddpkit_constrained_entries(p: Any) -> list[Entry]:
+#: ddpkit's ways of handling obstacles (`solve.py --method`) and their row labels.
+DDPKIT_METHODS = {"constrained": "ddpkit SafeCddpSolver", "penalty": "ddpkit penalty (AL rounds)"}
+
+
+def ddpkit_constrained_entries(p: Any, methods: tuple[str, ...] = ("constrained", "penalty")) -> list[Entry]:
+    """ddpkit on problem `p` through `solve.py`'s `DdpkitSolver`, one entry per obstacle method,
+    every solve cold (zero controls)."""
     sys.path.insert(0, str(PEERS))
     from solve import DdpkitSolver
 
     entries = []
-    for obstacles, label in (("constrained", "ddpkit SafeCddpSolver"), ("penalty", "ddpkit penalty (AL rounds)")):
+    for obstacles in methods:
+        label = DDPKIT_METHODS[obstacles]
         solver = DdpkitSolver(p, obstacles=obstacles)
         entry = Entry(label, lambda: (0, float("nan"), None))
 
@@ -238,7 +249,6 @@ def constrained_comparison(repeats: int, warmup: int) -> tuple[list[dict[str, An
         for e in entries:
             xs, us, status = e.solution
             ms = statistics.median(e.wall) * 1e3
-            violations = p.violations(xs, us)
             rows.append(
                 {
                     "problem": name,
@@ -248,7 +258,7 @@ def constrained_comparison(repeats: int, warmup: int) -> tuple[list[dict[str, An
                     "cost": e.cost,
                     "peer_cost": PEER_COST[name],
                     "rel_cost_vs_peers": (e.cost - PEER_COST[name]) / PEER_COST[name],
-                    "max_violation": max(violations.values()),
+                    "max_violation": p.max_violation(xs, us),
                     "ms_per_solve": ms,
                     "solves": len(e.wall),
                     "time_vs_ddpkit": ms / base,

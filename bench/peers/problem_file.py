@@ -19,6 +19,9 @@ import numpy as np
 #: Dimensions (nx, nu) of each model of bench/problems.md.
 MODELS = {"unicycle": (3, 2), "car": (4, 2), "point": (4, 2)}
 KNOWN_FIELDS = {"name", "model", "dt", "N", "x0", "cost", "u_min", "u_max", "obstacles"}
+#: Feasibility tolerance of bench/problems.md: a solution is feasible when its largest violation
+#: (`BenchProblem.max_violation`) is at most this.
+FEASIBILITY_TOL = 1e-6
 
 
 class ProblemFileError(ValueError):
@@ -99,6 +102,18 @@ class BenchProblem:
             d2 = (xs[1:, 0] - ox) ** 2 + (xs[1:, 1] - oy) ** 2
             obstacle = max(obstacle, float(np.max(r * r - d2)))
         return {"dynamics": max(defect, 0.0), "box": max(box, 0.0), "obstacle": max(obstacle, 0.0)}
+
+    def max_violation(self, xs: np.ndarray, us: np.ndarray) -> float:
+        """The largest of `violations`: the solution is feasible when this is <= FEASIBILITY_TOL."""
+        return max(self.violations(xs, us).values())
+
+    def clearance(self, xy: np.ndarray) -> float:
+        """Euclidean distance from the point `xy` to the nearest obstacle's boundary: negative
+        inside an obstacle, +inf without obstacles."""
+        if len(self.obstacles) == 0:
+            return math.inf
+        d = np.hypot(self.obstacles[:, 0] - xy[0], self.obstacles[:, 1] - xy[1])
+        return float(np.min(d - self.obstacles[:, 2]))
 
 
 # ---- validation -----------------------------------------------------------------------------------

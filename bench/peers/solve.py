@@ -44,12 +44,9 @@ from typing import Optional
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from problem_file import BenchProblem, ProblemFileError, load  # noqa: E402
+from problem_file import FEASIBILITY_TOL, BenchProblem, ProblemFileError, load  # noqa: E402
 
 import ddpkit  # noqa: E402
-
-#: Feasibility tolerance of bench/problems.md.
-FEASIBILITY_TOL = 1e-6
 
 
 @dataclass

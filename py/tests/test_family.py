@@ -1,0 +1,123 @@
+"""bench/peers/family.py: the seeded problem family is deterministic and well-formed, and the numpy
+re-scoring of a ddpkit solution agrees with ddpkit's own cost. Needs no casadi."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+PEERS = Path(__file__).resolve().parents[2] / "bench" / "peers"
+sys.path.insert(0, str(PEERS))
+
+import family  # noqa: E402
+from problem_file import MODELS, parse  # noqa: E402
+
+FAMILIES = sorted(family.FAMILIES)
+
+
+def test_no_casadi_needed() -> None:
+    # casadi is imported only inside the functions that solve with it: with casadi made
+    # unimportable, the generator and ddpkit's side still run.
+    code = (
+        "import sys; sys.modules['casadi'] = None; "
+        f"sys.path.insert(0, {str(PEERS)!r}); "
+        "import family, problem_file, solve; "
+        "spec = family.first_valid('car', 1, 0)[1]; "
+        "print(solve.DdpkitSolver(problem_file.parse(spec)).solve().status)"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() in ("converged", "infeasible", "max_iterations")
+
+
+@pytest.mark.parametrize("name", FAMILIES)
+def test_deterministic_for_a_seed(name: str) -> None:
+    for index in range(5):
+        assert family.generate(name, 3, index) == family.generate(name, 3, index)
+        assert family.first_valid(name, 3, index) == family.first_valid(name, 3, index)
+    # Different seeds, indices and attempts give different problems.
+    specs = {repr(family.generate(name, s, i, a)) for s in (1, 2) for i in range(3) for a in range(2)}
+    assert len(specs) == 12
+
+
+@pytest.mark.parametrize("name", FAMILIES)
+def test_generated_problems_are_well_formed(name: str) -> None:
+    for index in range(40):
+        attempt, spec, rejected = family.first_valid(name, 11, index)
+        assert spec["name"] == family.problem_id(name, 11, index, attempt)
+        assert len(rejected) == attempt
+        p = parse(spec)  # the problem-file form: validated like bench/problems/*.json
+        nx, nu = MODELS[p.model]
+        assert p.model == family.FAMILIES[name][1]
+        assert p.x0.shape == (nx,) and p.x_goal is not None and p.x_goal.shape == (nx,)
+        assert p.R is not None and p.R.shape == (nu,) and p.Qf is not None and p.Qf.shape == (nx,)
+        assert family.HORIZON[0] <= p.N <= family.HORIZON[1]
+        assert family.DT[0] <= p.dt <= family.DT[1]
+        assert (p.u_min is None) == (p.u_max is None)
+        if p.u_max is not None:
+            assert p.u_min is not None and np.all(p.u_max > 0.0) and np.array_equal(p.u_min, -p.u_max)
+        # At rest at the start, so the zero-control rollout is x0 repeated.
+        velocities = {"car": p.x0[3:], "point": p.x0[2:], "unicycle": p.x0[:0]}[p.model]
+        assert np.all(velocities == 0.0)
+        # 1 to 5 obstacles, centred between start and goal.
+        assert 1 <= len(p.obstacles) <= 5
+        start, goal = p.x0[:2], p.x_goal[:2]
+        line = goal - start
+        length = float(np.linalg.norm(line))
+        assert family.DISTANCE[0] - 1e-3 <= length <= family.DISTANCE[1] + 1e-3
+        for ox, oy, r in p.obstacles:
+            rel = np.array([ox, oy]) - start
+            t = float(rel @ line) / length**2
+            lateral = abs(float(line[0] * rel[1] - line[1] * rel[0])) / length
+            assert family.ALONG[0] - 1e-3 <= t <= family.ALONG[1] + 1e-3
+            assert lateral <= family.LATERAL + 1e-3
+            assert family.RADIUS[0] - 1e-4 <= r <= family.RADIUS[1] + 1e-4
+        # Start and goal outside every obstacle (with the generator's clearance).
+        for point in (start, goal):
+            d = np.hypot(p.obstacles[:, 0] - point[0], p.obstacles[:, 1] - point[1])
+            assert np.all(d - p.obstacles[:, 2] >= family.CLEARANCE)
+        # The rejected attempts were rejected for their geometry.
+        for rj in rejected:
+            fam, seed, i, a = family.parse_id(rj["id"])
+            assert family.geometry_problem(parse(family.generate(fam, seed, i, a))) == rj["reason"]
+
+
+def test_some_attempts_are_rejected() -> None:
+    rejected = [rj for i in range(40) for rj in family.first_valid("point", 11, i)[2]]
+    assert rejected, "the generator should sometimes put the start or goal inside an obstacle"
+    assert {rj["reason"] for rj in rejected} <= {"start inside an obstacle", "goal inside an obstacle"}
+
+
+@pytest.mark.parametrize("name", FAMILIES)
+def test_numpy_rescoring_matches_ddpkit_cost(name: str) -> None:
+    from solve import DdpkitSolver
+
+    _, spec, _ = family.first_valid(name, 5, 0)
+    spec["N"] = 80  # small
+    p = parse(spec)
+    solver = DdpkitSolver(p, obstacles="constrained")
+    assert solver.constrained is not None
+    sol = solver.constrained.solve()  # cold, as family.py's solve
+    assert sol.xs.shape == (p.N + 1, p.nx) and sol.us.shape == (p.N, p.nu)
+    assert math.isfinite(sol.cost)
+    assert p.objective(sol.xs, sol.us) == pytest.approx(sol.cost, rel=1e-9, abs=1e-12)
+    # The rollout is the numpy model's (single shooting), and the judge agrees on feasibility.
+    assert p.violations(sol.xs, sol.us)["dynamics"] <= 1e-9
+    judged = family._judge(p, sol.xs, sol.us)
+    assert judged["cost"] == p.objective(sol.xs, sol.us)
+    assert judged["max_violation"] == p.max_violation(sol.xs, sol.us)
+
+
+def test_winding_tells_the_sides_apart() -> None:
+    obstacle = np.array([[1.0, 0.0, 0.3]])
+    t = np.linspace(0.0, 1.0, 51)
+    above = np.stack([2.0 * t, np.sin(math.pi * t)], axis=1)
+    below = above * np.array([1.0, -1.0])
+    wa, wb = family.winding(above, obstacle)[0], family.winding(below, obstacle)[0]
+    assert wa == pytest.approx(-math.pi) and wb == pytest.approx(math.pi)
+    assert abs(wa - wb) > math.pi

@@ -10,6 +10,78 @@ use nalgebra::Dim;
 
 use crate::dims::{Allocator, DefaultAllocator, MatrixN};
 
+/// Whether any of three dimensions is known only at run time.
+#[inline(always)]
+fn run_time<A: Dim, B: Dim, C: Dim>() -> bool {
+    A::try_to_usize().is_none() || B::try_to_usize().is_none() || C::try_to_usize().is_none()
+}
+
+/// A kernel body with up to three sizes, which [`small`] runs with the sizes as constants when
+/// they are 1..=4 (its loops then unroll, as for compile-time sizes), else with the run-time
+/// values. The dispatch is out of line and instantiated once per kernel, so callers at
+/// compile-time sizes pay nothing (their branch is dead) and the build does not multiply.
+trait Kernel {
+    fn call<const A: usize, const B: usize, const C: usize>(self);
+    fn call_any(self, a: usize, b: usize, c: usize);
+}
+
+#[inline(never)]
+fn small<T: Kernel>(t: T, a: usize, b: usize, c: usize) {
+    match a {
+        1 => small_b::<T, 1>(t, b, c),
+        2 => small_b::<T, 2>(t, b, c),
+        3 => small_b::<T, 3>(t, b, c),
+        4 => small_b::<T, 4>(t, b, c),
+        _ => t.call_any(a, b, c),
+    }
+}
+
+#[inline(never)]
+fn small_b<T: Kernel, const A: usize>(t: T, b: usize, c: usize) {
+    match b {
+        1 => small_c::<T, A, 1>(t, c),
+        2 => small_c::<T, A, 2>(t, c),
+        3 => small_c::<T, A, 3>(t, c),
+        4 => small_c::<T, A, 4>(t, c),
+        _ => t.call_any(A, b, c),
+    }
+}
+
+#[inline(never)]
+fn small_c<T: Kernel, const A: usize, const B: usize>(t: T, c: usize) {
+    match c {
+        1 => t.call::<A, B, 1>(),
+        2 => t.call::<A, B, 2>(),
+        3 => t.call::<A, B, 3>(),
+        4 => t.call::<A, B, 4>(),
+        _ => t.call_any(A, B, c),
+    }
+}
+
+/// Implements [`Kernel`] for a struct of slices whose body takes the sizes last.
+macro_rules! kernel {
+    ($name:ident <$lt:lifetime> { $($field:ident : $ty:ty),* $(,)? } => $body:ident ( $n:tt )) => {
+        struct $name<$lt> { $($field: $ty),* }
+        impl Kernel for $name<'_> {
+            #[inline(always)]
+            fn call<const A: usize, const B: usize, const C: usize>(self) {
+                kernel!(@call self, $body, $n, A, B, C, $($field),*)
+            }
+            #[inline(always)]
+            fn call_any(self, a: usize, b: usize, c: usize) {
+                kernel!(@call self, $body, $n, a, b, c, $($field),*)
+            }
+        }
+    };
+    (@call $s:ident, $body:ident, 2, $a:expr, $b:expr, $c:expr, $($field:ident),*) => {{
+        let _ = $c;
+        $body($($s.$field),*, $a, $b)
+    }};
+    (@call $s:ident, $body:ident, 3, $a:expr, $b:expr, $c:expr, $($field:ident),*) => {
+        $body($($s.$field),*, $a, $b, $c)
+    };
+}
+
 /// `s + sum_k a_k b_k`, summed in order from `s` (the rounding of the loop written out). Short
 /// lengths are written out: for compile-time sizes the match folds away, for run-time sizes a
 /// branch replaces the iterator's per-element overhead (the same sums, the same rounding).
@@ -35,12 +107,22 @@ pub fn tr_mul_add<K: Dim, R: Dim, C: Dim>(
 ) where
     DefaultAllocator: Allocator<K, R> + Allocator<K, C> + Allocator<R, C>,
 {
-    // Columns are sliced by offset (no `chunks_exact`: its length division is a real `div` for
-    // run-time sizes).
     let (kk, r, cc) = (a.nrows(), a.ncols(), b.ncols());
     let (a, b) = (a.as_slice(), b.as_slice());
     let c = c.map(|c| c.as_slice());
     let o = out.as_mut_slice();
+    if run_time::<K, R, C>() {
+        small(TrMulAdd { o, c, a, b }, kk, r, cc)
+    } else {
+        tr_mul_add_body(o, c, a, b, kk, r, cc)
+    }
+}
+
+#[inline(always)]
+fn tr_mul_add_body(o: &mut [f64], c: Option<&[f64]>, a: &[f64], b: &[f64], kk: usize, r: usize, cc: usize) {
+    // Columns are sliced by offset (no `chunks_exact`: its length division is a real `div` for
+    // run-time sizes).
+    let (a, b, o) = (&a[..kk * r], &b[..kk * cc], &mut o[..r * cc]);
     for j in 0..cc {
         let bj = &b[j * kk..(j + 1) * kk];
         for i in 0..r {
@@ -63,6 +145,16 @@ where
     let (r, kk, cc) = (a.nrows(), a.ncols(), b.ncols());
     let (a, b) = (a.as_slice(), b.as_slice());
     let o = out.as_mut_slice();
+    if run_time::<R, K, C>() {
+        small(MulTo { o, a, b }, r, kk, cc)
+    } else {
+        mul_to_body(o, a, b, r, kk, cc)
+    }
+}
+
+#[inline(always)]
+fn mul_to_body(o: &mut [f64], a: &[f64], b: &[f64], r: usize, kk: usize, cc: usize) {
+    let (a, b, o) = (&a[..r * kk], &b[..kk * cc], &mut o[..r * cc]);
     for j in 0..cc {
         let bj = &b[j * kk..(j + 1) * kk];
         for i in 0..r {
@@ -94,9 +186,20 @@ pub fn mul_vec_add<R: Dim, K: Dim>(
 {
     let (r, kk) = (a.nrows(), a.ncols());
     let (a, x) = (a.as_slice(), x.as_slice());
+    let c = c.map(|c| c.as_slice());
     let o = out.as_mut_slice();
+    if run_time::<R, K, nalgebra::U1>() {
+        small(MulVecAdd { o, c, a, x }, r, kk, 1)
+    } else {
+        mul_vec_add_body(o, c, a, x, r, kk)
+    }
+}
+
+#[inline(always)]
+fn mul_vec_add_body(o: &mut [f64], c: Option<&[f64]>, a: &[f64], x: &[f64], r: usize, kk: usize) {
+    let (a, x, o) = (&a[..r * kk], &x[..kk], &mut o[..r]);
     match c {
-        Some(c) => o.copy_from_slice(c.as_slice()),
+        Some(c) => o.copy_from_slice(&c[..r]),
         None => o.fill(0.0),
     }
     for k in 0..kk {
@@ -121,6 +224,16 @@ pub fn tr_mul_vec_add<K: Dim, R: Dim>(
     let (a, x) = (a.as_slice(), x.as_slice());
     let c = c.map(|c| c.as_slice());
     let o = out.as_mut_slice();
+    if run_time::<K, R, nalgebra::U1>() {
+        small(TrMulVecAdd { o, c, a, x }, kk, r, 1)
+    } else {
+        tr_mul_vec_add_body(o, c, a, x, kk, r)
+    }
+}
+
+#[inline(always)]
+fn tr_mul_vec_add_body(o: &mut [f64], c: Option<&[f64]>, a: &[f64], x: &[f64], kk: usize, r: usize) {
+    let (a, x, o) = (&a[..kk * r], &x[..kk], &mut o[..r]);
     for i in 0..r {
         let p = dot_from(0.0, &a[i * kk..(i + 1) * kk], x);
         o[i] = match c {
@@ -140,6 +253,16 @@ where
     let (kk, n) = (a.nrows(), a.ncols());
     let (a, b, c) = (a.as_slice(), b.as_slice(), c.as_slice());
     let o = out.as_mut_slice();
+    if run_time::<K, N, N>() {
+        small(SymTrMulAdd { o, c, a, b }, kk, n, 1)
+    } else {
+        sym_tr_mul_add_body(o, c, a, b, kk, n)
+    }
+}
+
+#[inline(always)]
+fn sym_tr_mul_add_body(o: &mut [f64], c: &[f64], a: &[f64], b: &[f64], kk: usize, n: usize) {
+    let (a, b, c, o) = (&a[..kk * n], &b[..kk * n], &c[..n * n], &mut o[..n * n]);
     for j in 0..n {
         let bj = &b[j * kk..(j + 1) * kk];
         for i in 0..=j {
@@ -166,6 +289,17 @@ pub fn sym_tr_mul2_add<K: Dim, N: Dim>(
     let (kk, n) = (a.nrows(), a.ncols());
     let (a, b, c, d, e) = (a.as_slice(), b.as_slice(), c.as_slice(), d.as_slice(), e.as_slice());
     let o = out.as_mut_slice();
+    if run_time::<K, N, N>() {
+        small(SymTrMul2Add { o, c, m: [a, b, d, e] }, kk, n, 1)
+    } else {
+        sym_tr_mul2_add_body(o, c, [a, b, d, e], kk, n)
+    }
+}
+
+#[inline(always)]
+fn sym_tr_mul2_add_body(o: &mut [f64], c: &[f64], [a, b, d, e]: [&[f64]; 4], kk: usize, n: usize) {
+    let (a, b, d, e) = (&a[..kk * n], &b[..kk * n], &d[..kk * n], &e[..kk * n]);
+    let (c, o) = (&c[..n * n], &mut o[..n * n]);
     for j in 0..n {
         let (bj, ej) = (&b[j * kk..(j + 1) * kk], &e[j * kk..(j + 1) * kk]);
         for i in 0..=j {
@@ -223,9 +357,21 @@ pub fn cholesky_in_place<N: Dim>(a: &mut MatrixN<N, N>) -> bool
 where
     DefaultAllocator: Allocator<N, N>,
 {
-    // Column-major storage: L(i, k) = l[k n + i].
     let n = a.nrows();
     let l = a.as_mut_slice();
+    if run_time::<N, N, N>() {
+        let mut ok = false;
+        small(CholeskyK { l, ok: &mut ok }, n, 1, 1);
+        ok
+    } else {
+        cholesky_body(l, n)
+    }
+}
+
+#[inline(always)]
+fn cholesky_body(l: &mut [f64], n: usize) -> bool {
+    // Column-major storage: L(i, k) = l[k n + i].
+    let l = &mut l[..n * n];
     for j in 0..n {
         let mut d = l[j * n + j];
         for k in 0..j {
@@ -254,10 +400,18 @@ pub fn cholesky_solve_in_place<N: Dim, C: Dim>(l: &MatrixN<N, N>, b: &mut Matrix
 where
     DefaultAllocator: Allocator<N, N> + Allocator<N, C>,
 {
-    let n = l.nrows();
-    let cols = b.ncols();
-    let l = l.as_slice();
-    let b = b.as_mut_slice();
+    let (n, cols) = (l.nrows(), b.ncols());
+    let (l, b) = (l.as_slice(), b.as_mut_slice());
+    if run_time::<N, C, N>() {
+        small(CholeskySolve { l, b }, n, cols, 1)
+    } else {
+        cholesky_solve_body(l, b, n, cols)
+    }
+}
+
+#[inline(always)]
+fn cholesky_solve_body(l: &[f64], b: &mut [f64], n: usize, cols: usize) {
+    let (l, b) = (&l[..n * n], &mut b[..n * cols]);
     for c in 0..cols {
         let x = &mut b[c * n..(c + 1) * n];
         // Forward: L y = b.
@@ -276,6 +430,31 @@ where
             }
             x[i] = s / l[i * n + i];
         }
+    }
+}
+
+kernel!(TrMulAdd<'a> { o: &'a mut [f64], c: Option<&'a [f64]>, a: &'a [f64], b: &'a [f64] } => tr_mul_add_body(3));
+kernel!(MulTo<'a> { o: &'a mut [f64], a: &'a [f64], b: &'a [f64] } => mul_to_body(3));
+kernel!(MulVecAdd<'a> { o: &'a mut [f64], c: Option<&'a [f64]>, a: &'a [f64], x: &'a [f64] } => mul_vec_add_body(2));
+kernel!(TrMulVecAdd<'a> { o: &'a mut [f64], c: Option<&'a [f64]>, a: &'a [f64], x: &'a [f64] } => tr_mul_vec_add_body(2));
+kernel!(SymTrMulAdd<'a> { o: &'a mut [f64], c: &'a [f64], a: &'a [f64], b: &'a [f64] } => sym_tr_mul_add_body(2));
+kernel!(SymTrMul2Add<'a> { o: &'a mut [f64], c: &'a [f64], m: [&'a [f64]; 4] } => sym_tr_mul2_add_body(2));
+kernel!(CholeskySolve<'a> { l: &'a [f64], b: &'a mut [f64] } => cholesky_solve_body(2));
+
+/// The Cholesky factorisation as a [`Kernel`] (its result through `ok`).
+struct CholeskyK<'a> {
+    l: &'a mut [f64],
+    ok: &'a mut bool,
+}
+
+impl Kernel for CholeskyK<'_> {
+    #[inline(always)]
+    fn call<const A: usize, const B: usize, const C: usize>(self) {
+        *self.ok = cholesky_body(self.l, A);
+    }
+    #[inline(always)]
+    fn call_any(self, a: usize, _b: usize, _c: usize) {
+        *self.ok = cholesky_body(self.l, a);
     }
 }
 

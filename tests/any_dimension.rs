@@ -93,7 +93,9 @@ fn p1_at_run_time_size() -> Problem<Dyn, Dyn> {
     let p1 = reference::p1_unicycle();
     Problem::new(
         DVector::from_column_slice(p1.x0().as_slice()),
-        Arc::new(RunTimeSize::<_, 3, 2>::new(ddp_core::models::Unicycle::new(0.1).unwrap())),
+        Arc::new(RunTimeSize::<_, 3, 2>::new(
+            ddp_core::models::Unicycle::new(0.1).unwrap(),
+        )),
         Arc::new(RunTimeSize::<_, 3, 2>::new(
             QuadraticCost::<Const<3>, Const<2>>::weighted_norms(10.0, 1.0).unwrap(),
         )),
@@ -112,9 +114,16 @@ fn compile_time_and_run_time_sizes_run_the_same_iterations() {
     let fixed = reference::p1_unicycle();
     let dynamic = p1_at_run_time_size();
     for method in [Method::Ilqr, Method::Ddp] {
-        let settings = Settings { method, ..Settings::default() };
+        let settings = Settings {
+            method,
+            ..Settings::default()
+        };
         let a = Solver::new(&fixed, settings).unwrap().solve(&fixed).unwrap().table();
-        let b = Solver::new(&dynamic, settings).unwrap().solve(&dynamic).unwrap().table();
+        let b = Solver::new(&dynamic, settings)
+            .unwrap()
+            .solve(&dynamic)
+            .unwrap()
+            .table();
         assert_eq!(a, b, "{method:?}");
     }
     // Box-DDP: the car with control bounds.
@@ -124,8 +133,16 @@ fn compile_time_and_run_time_sizes_run_the_same_iterations() {
     let dyn_car = Problem::<Dyn, Dyn>::new(
         DVector::zeros(4),
         Arc::new(RunTimeSize::<_, 4, 2>::new(ddp_core::models::Car::new(0.05).unwrap())),
-        Arc::new(QuadraticCost::<Dyn, Dyn>::diagonal(&[0.0; 4], &[0.1, 0.1], DVector::zeros(4), DVector::zeros(2)).unwrap()),
-        Arc::new(QuadraticTerminal::<Dyn>::diagonal(&[100.0, 100.0, 10.0, 10.0], DVector::from_column_slice(goal.as_slice())).unwrap()),
+        Arc::new(
+            QuadraticCost::<Dyn, Dyn>::diagonal(&[0.0; 4], &[0.1, 0.1], DVector::zeros(4), DVector::zeros(2)).unwrap(),
+        ),
+        Arc::new(
+            QuadraticTerminal::<Dyn>::diagonal(
+                &[100.0, 100.0, 10.0, 10.0],
+                DVector::from_column_slice(goal.as_slice()),
+            )
+            .unwrap(),
+        ),
         car.horizon(),
     )
     .unwrap()
@@ -137,10 +154,23 @@ fn compile_time_and_run_time_sizes_run_the_same_iterations() {
         .unwrap(),
     )
     .unwrap();
-    let a = Solver::new(&car, Settings::default()).unwrap().solve(&car).unwrap().clone();
-    let b = Solver::new(&dyn_car, Settings::default()).unwrap().solve(&dyn_car).unwrap().clone();
+    let a = Solver::new(&car, Settings::default())
+        .unwrap()
+        .solve(&car)
+        .unwrap()
+        .clone();
+    let b = Solver::new(&dyn_car, Settings::default())
+        .unwrap()
+        .solve(&dyn_car)
+        .unwrap()
+        .clone();
     assert_eq!(a.status, b.status);
-    assert!((a.cost - b.cost).abs() < 1e-9 * (1.0 + a.cost), "{} vs {}", a.cost, b.cost);
+    assert!(
+        (a.cost - b.cost).abs() < 1e-9 * (1.0 + a.cost),
+        "{} vs {}",
+        a.cost,
+        b.cost
+    );
 }
 
 #[test]
@@ -150,9 +180,19 @@ fn safe_cddp_and_mpc_at_run_time_size_match_compile_time_size() {
     let lo = fixed.bounds().unwrap().clone();
     let dynamic = Problem::<Dyn, Dyn>::new(
         DVector::zeros(4),
-        Arc::new(RunTimeSize::<_, 4, 2>::new(ddp_core::models::DoubleIntegrator2D::new(0.05).unwrap())),
-        Arc::new(QuadraticCost::<Dyn, Dyn>::diagonal(&[0.0; 4], &[0.1, 0.1], DVector::zeros(4), DVector::zeros(2)).unwrap()),
-        Arc::new(QuadraticTerminal::<Dyn>::diagonal(&[100.0, 100.0, 10.0, 10.0], DVector::from_vec(vec![3.0, 3.0, 0.0, 0.0])).unwrap()),
+        Arc::new(RunTimeSize::<_, 4, 2>::new(
+            ddp_core::models::DoubleIntegrator2D::new(0.05).unwrap(),
+        )),
+        Arc::new(
+            QuadraticCost::<Dyn, Dyn>::diagonal(&[0.0; 4], &[0.1, 0.1], DVector::zeros(4), DVector::zeros(2)).unwrap(),
+        ),
+        Arc::new(
+            QuadraticTerminal::<Dyn>::diagonal(
+                &[100.0, 100.0, 10.0, 10.0],
+                DVector::from_vec(vec![3.0, 3.0, 0.0, 0.0]),
+            )
+            .unwrap(),
+        ),
         fixed.horizon(),
     )
     .unwrap()
@@ -173,7 +213,12 @@ fn safe_cddp_and_mpc_at_run_time_size_match_compile_time_size() {
     let rb = b.solve(&dynamic).unwrap().clone();
     assert_eq!(ra.status, rb.status);
     assert!(ra.max_violation <= 1e-8 && rb.max_violation <= 1e-8);
-    assert!((ra.cost - rb.cost).abs() < 1e-8 * (1.0 + ra.cost), "{} vs {}", ra.cost, rb.cost);
+    assert!(
+        (ra.cost - rb.cost).abs() < 1e-8 * (1.0 + ra.cost),
+        "{} vs {}",
+        ra.cost,
+        rb.cost
+    );
 
     // One MPC episode with chance-constraint tightening, at both sizes, the same noise.
     let sigma_w = nalgebra::Matrix4::from_diagonal(&nalgebra::Vector4::new(1e-5, 1e-5, 1e-6, 1e-6));
@@ -191,14 +236,30 @@ fn safe_cddp_and_mpc_at_run_time_size_match_compile_time_size() {
     };
     let t_fixed = Tightening::new(0.95, sigma_w).unwrap();
     let t_dyn = Tightening::<Dyn, Dyn>::new(0.95, DMatrix::from_column_slice(4, 4, sigma_w.as_slice())).unwrap();
-    let ea = Mpc::new(&fixed, vec![c_fixed], vec![], settings, Some(t_fixed), sigma_w, mpc_fixed)
-        .unwrap()
-        .run_episode(3)
-        .unwrap();
-    let eb = Mpc::new(&dynamic, vec![c_dyn], vec![], settings, Some(t_dyn), DMatrix::from_column_slice(4, 4, sigma_w.as_slice()), mpc_dyn)
-        .unwrap()
-        .run_episode(3)
-        .unwrap();
+    let ea = Mpc::new(
+        &fixed,
+        vec![c_fixed],
+        vec![],
+        settings,
+        Some(t_fixed),
+        sigma_w,
+        mpc_fixed,
+    )
+    .unwrap()
+    .run_episode(3)
+    .unwrap();
+    let eb = Mpc::new(
+        &dynamic,
+        vec![c_dyn],
+        vec![],
+        settings,
+        Some(t_dyn),
+        DMatrix::from_column_slice(4, 4, sigma_w.as_slice()),
+        mpc_dyn,
+    )
+    .unwrap()
+    .run_episode(3)
+    .unwrap();
     assert_eq!(ea.steps, eb.steps);
     assert_eq!(ea.collisions, eb.collisions);
     for (x, y) in ea.xs.iter().zip(&eb.xs) {
@@ -210,10 +271,14 @@ fn safe_cddp_and_mpc_at_run_time_size_match_compile_time_size() {
 fn sizes_that_disagree_or_are_out_of_range_are_errors_naming_the_argument() {
     let err = |e: ddp_core::Error| e.to_string();
     // Zero size.
-    let e = err(LinearDynamics::<Dyn, Dyn>::new(DMatrix::zeros(0, 0), DMatrix::zeros(0, 1), DVector::zeros(0)).unwrap_err());
+    let e = err(
+        LinearDynamics::<Dyn, Dyn>::new(DMatrix::zeros(0, 0), DMatrix::zeros(0, 1), DVector::zeros(0)).unwrap_err(),
+    );
     assert!(e.contains("a.shape[0]") && e.contains("at least 1"), "{e}");
     // B with other rows than A.
-    let e = err(LinearDynamics::<Dyn, Dyn>::new(DMatrix::identity(7, 7), DMatrix::zeros(6, 3), DVector::zeros(7)).unwrap_err());
+    let e = err(
+        LinearDynamics::<Dyn, Dyn>::new(DMatrix::identity(7, 7), DMatrix::zeros(6, 3), DVector::zeros(7)).unwrap_err(),
+    );
     assert!(e.contains('b'), "{e}");
     // Past the documented limit.
     let big = MAX_STATES + 1;
@@ -224,7 +289,15 @@ fn sizes_that_disagree_or_are_out_of_range_are_errors_naming_the_argument() {
     let e = err(Problem::<Dyn, Dyn>::new(
         p.x0.clone(),
         Arc::new(LinearDynamics::new(p.a.clone(), p.b.clone(), DVector::zeros(7)).unwrap()),
-        Arc::new(QuadraticCost::new(DMatrix::identity(6, 6), p.r.clone(), DVector::zeros(6), DVector::zeros(3)).unwrap()),
+        Arc::new(
+            QuadraticCost::new(
+                DMatrix::identity(6, 6),
+                p.r.clone(),
+                DVector::zeros(6),
+                DVector::zeros(3),
+            )
+            .unwrap(),
+        ),
         Arc::new(QuadraticTerminal::new(p.qf.clone(), DVector::zeros(7)).unwrap()),
         10,
     )
@@ -272,7 +345,9 @@ fn sizes_that_disagree_or_are_out_of_range_are_errors_naming_the_argument() {
     let mut xs = vec![DVector::zeros(7); 11];
     let e = err(problem.rollout(&vec![DVector::zeros(2); 10], &mut xs).unwrap_err());
     assert!(e.contains("us[0]"), "{e}");
-    let e = err(problem.cost(&vec![DVector::zeros(6); 11], &vec![DVector::zeros(3); 10]).unwrap_err());
+    let e = err(problem
+        .cost(&vec![DVector::zeros(6); 11], &vec![DVector::zeros(3); 10])
+        .unwrap_err());
     assert!(e.contains("xs[0]"), "{e}");
     let _ = VectorN::<Dyn>::zeros(1);
 }

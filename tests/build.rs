@@ -37,7 +37,10 @@ fn main() {
             "/// README quick start, block {i}.\npub fn block_{i}() -> Result<(), Box<dyn std::error::Error>> {{\n{b}\nOk(())\n}}\n"
         ));
     }
-    out.push_str(&format!("/// Every block.\npub const BLOCKS: usize = {};\n", blocks.len()));
+    out.push_str(&format!(
+        "/// Every block.\npub const BLOCKS: usize = {};\n",
+        blocks.len()
+    ));
     let dst = Path::new(&std::env::var("OUT_DIR").expect("OUT_DIR")).join("readme_quickstart.rs");
     std::fs::write(dst, out).expect("OUT_DIR is writable");
 }

@@ -9,7 +9,10 @@ pub struct Lcg(pub u64);
 impl Lcg {
     /// The next value.
     pub fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
     /// An `r x c` matrix of values in `[-1, 1)` scaled by `s`.

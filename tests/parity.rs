@@ -25,7 +25,14 @@ fn assert_parity<NX: Dim, NU: Dim>(problem: &Problem<NX, NU>, method: Method, la
 where
     nalgebra::DefaultAllocator: ddp_core::dims::Alloc<NX, NU>,
 {
-    let mut ddp = Solver::new(problem, Settings { method, ..Settings::default() }).unwrap();
+    let mut ddp = Solver::new(
+        problem,
+        Settings {
+            method,
+            ..Settings::default()
+        },
+    )
+    .unwrap();
     let r = ddp.solve(problem).unwrap().clone();
     let mut safe = SafeCddpSolver::new(problem, vec![], safe_settings(method)).unwrap();
     let s = safe.solve(problem).unwrap().clone();
@@ -34,9 +41,18 @@ where
     let costs = |log: Vec<(f64, bool)>| log.into_iter().filter(|x| x.1).map(|x| x.0).collect::<Vec<_>>();
     let a = costs(r.log.iter().map(|l| (l.cost, l.accepted)).collect());
     let b = costs(s.log.iter().map(|l| (l.cost, l.accepted)).collect());
-    assert_eq!(a.len(), b.len(), "{label}: accepted iterations\n{}\n{}", r.table(), s.table());
+    assert_eq!(
+        a.len(),
+        b.len(),
+        "{label}: accepted iterations\n{}\n{}",
+        r.table(),
+        s.table()
+    );
     for (k, (x, y)) in a.iter().zip(&b).enumerate() {
-        assert!((x - y).abs() <= 1e-9 * (1.0 + x.abs()), "{label}: iteration {k}: {x} vs {y}");
+        assert!(
+            (x - y).abs() <= 1e-9 * (1.0 + x.abs()),
+            "{label}: iteration {k}: {x} vs {y}"
+        );
     }
     assert_eq!(r.backward_passes > 0, s.backward_passes > 0);
     for (x, y) in ddp.xs().iter().zip(safe.xs()) {
@@ -70,7 +86,9 @@ fn full_ddp_agrees_on_models_with_second_order_terms() {
 fn parity_holds_at_run_time_size() {
     // P1 with the unicycle wrapped to run-time size and run-time-size quadratic costs.
     let p1 = reference::p1_unicycle();
-    let dynamics = Arc::new(RunTimeSize::<_, 3, 2>::new(ddp_core::models::Unicycle::new(0.1).unwrap()));
+    let dynamics = Arc::new(RunTimeSize::<_, 3, 2>::new(
+        ddp_core::models::Unicycle::new(0.1).unwrap(),
+    ));
     let running = Arc::new(RunTimeSize::<_, 3, 2>::new(
         ddp_core::costs::QuadraticCost::<Const<3>, Const<2>>::weighted_norms(10.0, 1.0).unwrap(),
     ));

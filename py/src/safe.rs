@@ -759,12 +759,7 @@ where
     }
 }
 
-fn solve_safe<NX: Dim, NU: Dim>(
-    s: &mut AnySafe,
-    p: &AnyProblem,
-    us0: Option<&Arr>,
-    warm_start: bool,
-) -> CoreResult<Out>
+fn solve_safe<NX: Dim, NU: Dim>(s: &mut AnySafe, p: &AnyProblem, us0: Option<&Arr>, warm_start: bool) -> CoreResult<Out>
 where
     DefaultAllocator: Alloc<NX, NU>,
     Dispatch: Pair<NX, NU> + SafePair<NX, NU>,
@@ -855,9 +850,7 @@ impl SafeCddpSolver {
         let (nx, nu) = (p.nx, p.nu);
         let shared = p.inner.clone();
         let t = tightening.as_ref().map(|t| t.get());
-        let inner = Problem::read(&shared, |q| {
-            with_dims!(nx, nu, new_safe(q, &specs, t, settings))
-        })?;
+        let inner = Problem::read(&shared, |q| with_dims!(nx, nu, new_safe(q, &specs, t, settings)))?;
         Ok(Self { shared, inner, nx, nu })
     }
 
@@ -888,9 +881,7 @@ impl SafeCddpSolver {
         let (nx, nu) = (self.nx, self.nu);
         let shared = &self.shared;
         let inner = &mut self.inner;
-        Ok(py.detach(|| -> CoreResult<f64> {
-            Problem::read(shared, |p| with_dims!(nx, nu, tighten_safe(inner, p)))
-        })?)
+        Ok(py.detach(|| -> CoreResult<f64> { Problem::read(shared, |p| with_dims!(nx, nu, tighten_safe(inner, p))) })?)
     }
 
     /// Receding horizon: drops knot 0 of the solution (controls, gains, multipliers, margins).
@@ -908,20 +899,14 @@ impl SafeCddpSolver {
     /// Shortens (or restores) the active horizon ``1 <= n <= N`` (shrinking-horizon MPC).
     fn set_horizon(&mut self, n: i64) -> PyResult<()> {
         let n = usize::try_from(n).map_err(|_| invalid("horizon", format!("must be at least 1, got {n}")))?;
-        with_dims!(self.nx,
-            self.nu,
-            edit_safe(&mut self.inner, Edit::Horizon(n))
-        )?;
+        with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Horizon(n)))?;
         Ok(())
     }
 
     /// The active horizon.
     #[getter]
     fn horizon(&mut self) -> PyResult<usize> {
-        Ok(with_dims!(self.nx,
-            self.nu,
-            edit_safe(&mut self.inner, Edit::Get)
-        )?)
+        Ok(with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Get))?)
     }
 
     /// Number of states.
@@ -1202,8 +1187,7 @@ impl Mpc {
     fn run_episode(&mut self, py: Python<'_>, seed: u64) -> PyResult<Episode> {
         let (nx, nu) = (self.nx, self.nu);
         let inner = &mut self.inner;
-        let e =
-            py.detach(|| -> CoreResult<EpisodeOut> { with_dims!(nx, nu, run_mpc(inner, seed)) })?;
+        let e = py.detach(|| -> CoreResult<EpisodeOut> { with_dims!(nx, nu, run_mpc(inner, seed)) })?;
         Ok(Episode {
             success: e.success,
             steps: e.steps,

@@ -2,9 +2,9 @@
 //! forward pass, and whole solves. Throughput is per knot, so criterion's "elem/s" converts to
 //! µs per knot as Crocoddyl reports it.
 
-use nalgebra::Const;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use ddp_core::{reference, Method, Problem, Settings, Solver};
+use nalgebra::Const;
 
 fn phases<const NX: usize, const NU: usize>(c: &mut Criterion, name: &str, problem: &Problem<Const<NX>, Const<NU>>) {
     let mut group = c.benchmark_group(name);

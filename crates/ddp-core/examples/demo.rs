@@ -5,8 +5,8 @@
 //! cargo run --release -p ddp-core --example demo
 //! ```
 
-use nalgebra::Const;
 use ddp_core::{reference, Method, Problem, Settings, Solver};
+use nalgebra::Const;
 
 fn run<const NX: usize, const NU: usize>(title: &str, problem: &Problem<Const<NX>, Const<NU>>) -> ddp_core::Result<()> {
     for (label, method) in [("iLQR", Method::Ilqr), ("full DDP", Method::Ddp)] {

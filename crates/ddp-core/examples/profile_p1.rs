@@ -44,7 +44,9 @@ fn main() -> ddp_core::Result<()> {
         let dynamic = Problem::<Dyn, Dyn>::new(
             nalgebra::DVector::from_column_slice(problem.x0().as_slice()),
             Arc::new(RunTimeSize::<_, 3, 2>::new(Unicycle::new(0.1)?)),
-            Arc::new(RunTimeSize::<_, 3, 2>::new(QuadraticCost::<U3, U2>::weighted_norms(10.0, 1.0)?)),
+            Arc::new(RunTimeSize::<_, 3, 2>::new(QuadraticCost::<U3, U2>::weighted_norms(
+                10.0, 1.0,
+            )?)),
             Arc::new(RunTimeTerminal::<_, 3>(QuadraticTerminal::<U3>::diagonal(
                 &[100.0; 3],
                 ddp_core::Vector::zeros(),

@@ -64,7 +64,12 @@ where
 
 /// The free set at `x`: a variable is clamped when it sits at a bound and the gradient pushes
 /// it further out.
-fn free_set<N: Dim>(x: &VectorN<N>, grad: &VectorN<N>, lower: &VectorN<N>, upper: &VectorN<N>) -> nalgebra::OVector<bool, N>
+fn free_set<N: Dim>(
+    x: &VectorN<N>,
+    grad: &VectorN<N>,
+    lower: &VectorN<N>,
+    upper: &VectorN<N>,
+) -> nalgebra::OVector<bool, N>
 where
     DefaultAllocator: Allocator<N>,
 {

@@ -478,7 +478,11 @@ where
         // Lend the state blocks to the terminal term: swaps of owned buffers, with empty
         // placeholders for a run-time size (no copy, no allocation).
         let (r, _) = x.shape_generic();
-        let ph = if NX::try_to_usize().is_some() { r } else { NX::from_usize(0) };
+        let ph = if NX::try_to_usize().is_some() {
+            r
+        } else {
+            NX::from_usize(0)
+        };
         let mut t = TerminalDerivatives {
             lx: std::mem::replace(&mut d.lx, VectorN::zeros_generic(ph, U1)),
             lxx: std::mem::replace(&mut d.lxx, MatrixN::zeros_generic(ph, ph)),

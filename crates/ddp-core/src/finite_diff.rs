@@ -1,8 +1,8 @@
 //! Finite differences: a wrapper that gives any `step` function Jacobians (and contracted second
 //! derivatives), and a checker that compares a model's analytic derivatives with them.
 
-use nalgebra::Const;
 use crate::{Dynamics, Matrix, Vector};
+use nalgebra::Const;
 
 /// A discrete map `x_{k+1} = f(x_k, u_k)` without derivatives.
 pub trait DiscreteMap<const NX: usize, const NU: usize>: Send + Sync {

@@ -347,7 +347,10 @@ pub fn add_to<R: Dim, C: Dim>(dst: &mut MatrixN<R, C>, src: &MatrixN<R, C>)
 where
     DefaultAllocator: Allocator<R, C>,
 {
-    dst.as_mut_slice().iter_mut().zip(src.as_slice()).for_each(|(d, s)| *d += s);
+    dst.as_mut_slice()
+        .iter_mut()
+        .zip(src.as_slice())
+        .for_each(|(d, s)| *d += s);
 }
 
 /// Cholesky factorisation `A = L L^T` in place: the lower triangle of `a` becomes `L` (the

@@ -22,8 +22,8 @@
 pub mod autodiff;
 pub mod boxqp;
 pub mod cost;
-pub mod dims;
 pub mod costs;
+pub mod dims;
 pub mod dynamics;
 pub mod error;
 pub mod finite_diff;
@@ -37,10 +37,10 @@ pub mod runtime;
 pub mod solver;
 
 pub use cost::{Cost, CostDerivatives, TerminalCost, TerminalDerivatives};
+pub use dims::{Dims, MatrixN, VectorN};
 pub use dynamics::Dynamics;
 pub use error::{Error, Result};
 pub use problem::{ControlBounds, Knot, Problem};
-pub use dims::{Dims, MatrixN, VectorN};
 pub use solver::{
     IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Solver, Status,
     Tolerances,

@@ -31,9 +31,9 @@
 //! assert!((p.value(&Vector::<3>::new(0.5, 0.0, 0.0)) - 2.0 * 0.75 * 0.75).abs() < 1e-15);
 //! ```
 
-use nalgebra::Const;
 use crate::error::{check_finite, check_nonnegative, Error, Result};
 use crate::{TerminalCost, TerminalDerivatives, Vector};
+use nalgebra::Const;
 
 /// Squared-hinge penalty `w * sum_o max(0, r_o^2 - |p - o|^2)^2` on circular obstacles
 /// `(ox, oy, r)`, with the planar position `p = (x[i0], x[i1])`.
@@ -205,7 +205,10 @@ mod tests {
             let (mut xp, mut xm) = (x, x);
             xp[a] += step;
             xm[a] -= step;
-            let (mut dp, mut dm) = (TerminalDerivatives::<U4>::default(), TerminalDerivatives::<U4>::default());
+            let (mut dp, mut dm) = (
+                TerminalDerivatives::<U4>::default(),
+                TerminalDerivatives::<U4>::default(),
+            );
             p.add_derivatives(&xp, 0.5, &mut dp);
             p.add_derivatives(&xm, 0.5, &mut dm);
             for b in 0..2 {

@@ -28,7 +28,10 @@ fn goal_cost<const NX: usize, const NU: usize>(
     r: [f64; NU],
     qf: [f64; NX],
     goal: Vector<NX>,
-) -> (Arc<QuadraticCost<Const<NX>, Const<NU>>>, Arc<QuadraticTerminal<Const<NX>>>) {
+) -> (
+    Arc<QuadraticCost<Const<NX>, Const<NU>>>,
+    Arc<QuadraticTerminal<Const<NX>>>,
+) {
     (
         Arc::new(QuadraticCost::diagonal(&[0.0; NX], &r, Vector::zeros(), Vector::zeros()).expect("valid weights")),
         Arc::new(QuadraticTerminal::diagonal(&qf, goal).expect("valid weights")),

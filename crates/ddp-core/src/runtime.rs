@@ -58,7 +58,9 @@ fn copy_back<const R: usize, const C: usize>(dst: &mut MatrixN<Dyn, Dyn>, src: &
     dst.as_mut_slice().copy_from_slice(src.as_slice());
 }
 
-impl<const NX: usize, const NU: usize, M: Dynamics<Const<NX>, Const<NU>>> Dynamics<Dyn, Dyn> for RunTimeSize<M, NX, NU> {
+impl<const NX: usize, const NU: usize, M: Dynamics<Const<NX>, Const<NU>>> Dynamics<Dyn, Dyn>
+    for RunTimeSize<M, NX, NU>
+{
     fn step(&self, x: &VectorN<Dyn>, u: &VectorN<Dyn>) -> VectorN<Dyn> {
         VectorN::<Dyn>::from_column_slice(self.0.step(&fixed::<NX>(x), &fixed::<NU>(u)).as_slice())
     }
@@ -90,8 +92,14 @@ impl<const NX: usize, const NU: usize, M: Dynamics<Const<NX>, Const<NU>>> Dynami
         let mut a = Matrix::<NX, NX>::from_column_slice(h_xx.as_slice());
         let mut b = Matrix::<NU, NX>::from_column_slice(h_ux.as_slice());
         let mut c = Matrix::<NU, NU>::from_column_slice(h_uu.as_slice());
-        self.0
-            .add_second_order(&fixed::<NX>(x), &fixed::<NU>(u), &fixed::<NX>(lambda), &mut a, &mut b, &mut c);
+        self.0.add_second_order(
+            &fixed::<NX>(x),
+            &fixed::<NU>(u),
+            &fixed::<NX>(lambda),
+            &mut a,
+            &mut b,
+            &mut c,
+        );
         copy_back(h_xx, &a);
         copy_back(h_ux, &b);
         copy_back(h_uu, &c);
@@ -141,4 +149,3 @@ impl<const NX: usize, C: TerminalCost<Const<NX>>> TerminalCost<Dyn> for RunTimeT
         Some(NX)
     }
 }
-

@@ -69,7 +69,8 @@ fn repeated_solves_allocate_nothing() {
         120,
     )
     .unwrap()
-    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap()).unwrap();
+    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap())
+    .unwrap();
     let mut solver = Solver::new(&car, Settings::default()).unwrap();
     solver.solve(&car).unwrap();
     let n = count(|| {

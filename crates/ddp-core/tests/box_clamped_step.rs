@@ -23,7 +23,8 @@ fn box_ddp_takes_a_step_that_is_clamped_at_every_knot() {
         30,
     )
     .unwrap()
-    .with_control_bounds(bounds).unwrap();
+    .with_control_bounds(bounds)
+    .unwrap();
     let mut solver = Solver::new(&problem, Settings::default()).unwrap();
     let report = solver.solve(&problem).unwrap();
     assert!(report.iterations > 0, "{}", report.table());

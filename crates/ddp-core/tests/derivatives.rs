@@ -2,11 +2,11 @@
 //! (one generic check looped over all models) and against num-dual's exact derivatives of the same
 //! model written generically. Also constructor errors and physical sanity checks.
 
-use nalgebra::Const;
 use ddp_core::autodiff::{AutoDiff, DualDynamics};
 use ddp_core::finite_diff::check_derivatives;
 use ddp_core::models::{ArmBase, ArmBaseParams, Car, DifferentialDrive, DoubleIntegrator2D, Quadrotor, Unicycle};
 use ddp_core::{Dynamics, Error, Matrix, Vector};
+use nalgebra::Const;
 
 /// Samples per model.
 const SAMPLES: usize = 60;
@@ -57,7 +57,11 @@ fn second_order<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<N
 /// entry: about `eps^(2/3)` is expected for the Jacobians (central differences with step
 /// `eps^(1/3)`) and about `eps^(1/2)` for the nested second differences; the tolerances leave a
 /// margin of more than 30x over the worst errors seen.
-fn check_model<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>>(name: &str, model: &D, seed: u64) -> Worst {
+fn check_model<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>>(
+    name: &str,
+    model: &D,
+    seed: u64,
+) -> Worst {
     let tol_first = 1e-3 * f64::EPSILON.cbrt();
     let tol_second = 1e-5;
     assert!(

@@ -5,7 +5,10 @@ use std::sync::Arc;
 
 use ddp_core::costs::{ControlSquared, ObstacleHinge, QuadraticCost, QuadraticTerminal, SmoothDistance};
 use ddp_core::linear::LinearDynamics;
-use ddp_core::{ControlBounds, Error, LineSearchSettings, Matrix, Problem, RegularizationSettings, Settings, Solver, Tolerances, Vector};
+use ddp_core::{
+    ControlBounds, Error, LineSearchSettings, Matrix, Problem, RegularizationSettings, Settings, Solver, Tolerances,
+    Vector,
+};
 
 fn lq(horizon: usize, x0: Vector<2>) -> ddp_core::Result<Problem<U2, U1>> {
     Problem::new(

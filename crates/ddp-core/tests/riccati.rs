@@ -6,7 +6,9 @@ use std::sync::Arc;
 
 use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
 use ddp_core::linear::LinearDynamics;
-use ddp_core::{ControlBounds, Matrix, Method, Problem, Regularization, RegularizationSettings, Settings, Solver, Status, Vector};
+use ddp_core::{
+    ControlBounds, Matrix, Method, Problem, Regularization, RegularizationSettings, Settings, Solver, Status, Vector,
+};
 
 const NX: usize = 4;
 const NU: usize = 2;
@@ -130,7 +132,9 @@ fn state_regularization_equals_riccati_at_zero_mu() {
 fn inactive_bounds_change_nothing() {
     let p = lq();
     let (gains, _) = riccati(&p);
-    let prob = problem(&p).with_control_bounds(ControlBounds::new(Vector::repeat(-1e3), Vector::repeat(1e3)).unwrap()).unwrap();
+    let prob = problem(&p)
+        .with_control_bounds(ControlBounds::new(Vector::repeat(-1e3), Vector::repeat(1e3)).unwrap())
+        .unwrap();
     let mut solver = Solver::new(&prob, Settings::default()).unwrap();
     let report = solver.solve(&prob).unwrap();
     assert_eq!(report.status, Status::Converged);
@@ -146,7 +150,9 @@ fn active_bounds_are_respected_and_optimal() {
     // pushing outwards, or interior with zero gradient.
     let p = lq();
     let lim = 2.0;
-    let prob = problem(&p).with_control_bounds(ControlBounds::new(Vector::repeat(-lim), Vector::repeat(lim)).unwrap()).unwrap();
+    let prob = problem(&p)
+        .with_control_bounds(ControlBounds::new(Vector::repeat(-lim), Vector::repeat(lim)).unwrap())
+        .unwrap();
     let mut solver = Solver::new(&prob, Settings::default()).unwrap();
     let report = solver.solve(&prob).unwrap().clone();
     assert_eq!(report.status, Status::Converged, "{}", report.table());

@@ -1,8 +1,8 @@
 //! Receding horizon: after `shift` and a new `x0`, a warm-started solve reaches the same optimum
 //! as a cold solve of the same problem, in fewer iterations.
 
-use nalgebra::Const;
 use ddp_core::{reference, Method, Problem, Settings, Solver, Status};
+use nalgebra::Const;
 
 fn check<const NX: usize, const NU: usize>(name: &str, mut problem: Problem<Const<NX>, Const<NU>>, method: Method) {
     let settings = Settings {

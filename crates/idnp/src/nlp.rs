@@ -233,7 +233,13 @@ impl Cost<U10, U5> for TrackingCost {
     fn value(&self, x: &Vector<10>, u: &Vector<5>) -> f64 {
         self.quad.value(x, u) + self.penalty.as_ref().map_or(0.0, |p| p.value(x, u))
     }
-    fn add_derivatives(&self, x: &Vector<10>, u: &Vector<5>, w: f64, d: &mut ddp_core::CostDerivatives<U10, U5>) -> f64 {
+    fn add_derivatives(
+        &self,
+        x: &Vector<10>,
+        u: &Vector<5>,
+        w: f64,
+        d: &mut ddp_core::CostDerivatives<U10, U5>,
+    ) -> f64 {
         let mut v = self.quad.add_derivatives(x, u, w, d);
         if let Some(p) = &self.penalty {
             v += p.add_derivatives(x, u, w, d);

@@ -32,7 +32,8 @@ fn car_n90() -> (Problem<U4, U2>, safe_cddp::Constraints<U4, U2>) {
         90,
     )
     .unwrap()
-    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap()).unwrap();
+    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap())
+    .unwrap();
     let obstacles: Vec<Arc<dyn Constraint<U4, U2>>> = vec![
         Arc::new(Circle::squared([1.0, 0.1], 0.35, [0, 1]).unwrap()),
         Arc::new(Circle::squared([2.0, -0.1], 0.35, [0, 1]).unwrap()),

@@ -75,7 +75,8 @@ fn main() -> ddp_core::Result<()> {
         o.measurement_std,
         o.initial_velocity_std,
     )?;
-    let circle = kf.moving_circle::<ddp_core::dims::Const<4>>(problem.horizon(), o.radius, [0, 1], CircleForm::Distance)?;
+    let circle =
+        kf.moving_circle::<ddp_core::dims::Const<4>>(problem.horizon(), o.radius, [0, 1], CircleForm::Distance)?;
     let rows: Vec<Arc<dyn Constraint<U4, U2>>> = vec![Arc::new(circle)];
     let mut solver = SafeCddpSolver::new(&problem, rows, Settings::default())?;
     solver.solve(&problem)?;

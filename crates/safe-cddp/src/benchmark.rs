@@ -128,9 +128,15 @@ impl BenchmarkProblem {
         }
     }
 
-    fn build<const NX: usize, const NU: usize>(&self, dynamics: Arc<dyn Dynamics<Const<NX>, Const<NU>>>) -> Result<Problem<Const<NX>, Const<NU>>> {
+    fn build<const NX: usize, const NU: usize>(
+        &self,
+        dynamics: Arc<dyn Dynamics<Const<NX>, Const<NU>>>,
+    ) -> Result<Problem<Const<NX>, Const<NU>>> {
         let x0 = vector::<NX>("x0", &self.x0)?;
-        let (running, terminal): (Arc<QuadraticCost<Const<NX>, Const<NU>>>, Arc<QuadraticTerminal<Const<NX>>>) = match &self.cost {
+        let (running, terminal): (
+            Arc<QuadraticCost<Const<NX>, Const<NU>>>,
+            Arc<QuadraticTerminal<Const<NX>>>,
+        ) = match &self.cost {
             BenchmarkCost::Unicycle { w_x, w_u } => (
                 Arc::new(QuadraticCost::weighted_norms(*w_x, *w_u)?),
                 Arc::new(QuadraticTerminal::diagonal(&[w_x * w_x; NX], Vector::zeros())?),
@@ -186,7 +192,10 @@ impl BenchmarkProblem {
     fn circles<const NX: usize, const NU: usize>(&self) -> Result<Vec<Arc<dyn Constraint<Const<NX>, Const<NU>>>>> {
         self.obstacles
             .iter()
-            .map(|o| Ok(Arc::new(Circle::<Const<NX>>::squared([o[0], o[1]], o[2], [0, 1])?) as Arc<dyn Constraint<Const<NX>, Const<NU>>>))
+            .map(|o| {
+                Ok(Arc::new(Circle::<Const<NX>>::squared([o[0], o[1]], o[2], [0, 1])?)
+                    as Arc<dyn Constraint<Const<NX>, Const<NU>>>)
+            })
             .collect()
     }
 }

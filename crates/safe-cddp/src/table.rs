@@ -28,8 +28,8 @@
 //! # Ok::<(), ddp_core::Error>(())
 //! ```
 
-use ddp_core::dims::{U12, U4};
 use ddp_core::dims::Const;
+use ddp_core::dims::{U12, U4};
 use std::sync::Arc;
 
 use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
@@ -403,7 +403,10 @@ impl Method {
 }
 
 /// The MPC of `method` on `scenario` (allocates the solver).
-pub fn mpc<const NX: usize, const NU: usize>(sc: &Scenario<NX, NU>, method: Method) -> Result<Mpc<Const<NX>, Const<NU>>> {
+pub fn mpc<const NX: usize, const NU: usize>(
+    sc: &Scenario<NX, NU>,
+    method: Method,
+) -> Result<Mpc<Const<NX>, Const<NU>>> {
     Mpc::new(
         &sc.problem,
         sc.constraints.clone(),

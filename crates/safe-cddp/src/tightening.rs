@@ -25,8 +25,8 @@
 //! ```
 
 use ddp_core::costs::check_psd;
-use ddp_core::error::check_finite;
 use ddp_core::dims::{Alloc, DefaultAllocator, Dim, MatrixN, VectorN};
+use ddp_core::error::check_finite;
 use ddp_core::{Error, Matrix, Result};
 
 use crate::quantile::normal_quantile;
@@ -276,7 +276,12 @@ mod tests {
         let t = Tightening::<ddp_core::dims::U2, ddp_core::dims::U1>::new(0.5, Matrix::identity()).unwrap();
         assert_eq!(t.quantile(), 0.0);
         assert_eq!(
-            margin(t.quantile(), &ddp_core::Vector::<2>::new(1.0, 2.0), &Matrix::identity(), 0.3),
+            margin(
+                t.quantile(),
+                &ddp_core::Vector::<2>::new(1.0, 2.0),
+                &Matrix::identity(),
+                0.3
+            ),
             0.0
         );
         assert!(Tightening::<ddp_core::dims::U2, ddp_core::dims::U1>::new(1.0, Matrix::identity()).is_err());

@@ -41,7 +41,9 @@ fn repeated_solves_tightenings_and_mpc_steps_allocate_nothing() {
     // The same with chance-constraint tightening (eqs. 19-20, bounds-only gains) and a
     // shrinking-horizon MPC loop: shift, shorter horizon, new x0, iterations and tightenings.
     let sigma_w = Matrix::<4, 4>::from_diagonal(&Vector::<4>::new(1e-5, 1e-5, 4e-5, 4e-5));
-    solver.set_tightening(Some(Tightening::new(0.95, sigma_w).unwrap())).unwrap();
+    solver
+        .set_tightening(Some(Tightening::new(0.95, sigma_w).unwrap()))
+        .unwrap();
     let mut mpc_problem = problem.clone();
     solver.reset();
     solver.solve(&mpc_problem).unwrap();
@@ -77,7 +79,9 @@ fn repeated_solves_tightenings_and_mpc_steps_allocate_nothing() {
         Arc::new(Circle::squared([2.7, -0.25], 0.3, [0, 1]).unwrap()),
     ];
     let mut solver = SafeCddpSolver::new(&problem, discs, Settings::default()).unwrap();
-    solver.set_tightening(Some(Tightening::new(0.99, sigma_w).unwrap())).unwrap();
+    solver
+        .set_tightening(Some(Tightening::new(0.99, sigma_w).unwrap()))
+        .unwrap();
     solver.solve(&problem).unwrap();
     let mut clarabel = 0;
     let n = count(|| {

@@ -109,7 +109,9 @@ fn constraint_derivatives_match_finite_differences() {
 #[test]
 fn polygon_signed_distance_is_exact() {
     // The unit square: outside along an edge, outside at a corner, inside.
-    let sq = ConvexPolygon::<ddp_core::dims::Const<4>>::new(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 0.0, [0, 1]).unwrap();
+    let sq =
+        ConvexPolygon::<ddp_core::dims::Const<4>>::new(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 0.0, [0, 1])
+            .unwrap();
     let (d, n) = sq.signed_distance([1.5, 0.5]);
     assert!((d - 0.5).abs() < 1e-12 && (n[0] - 1.0).abs() < 1e-12 && n[1].abs() < 1e-12);
     let (d, _) = sq.signed_distance([2.0, 2.0]);

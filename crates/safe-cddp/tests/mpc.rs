@@ -100,7 +100,9 @@ fn moving_obstacle_margin_is_the_quantile_times_its_predicted_position_std() {
     let mut solver = SafeCddpSolver::new(&problem, vec![constraint], Settings::default()).unwrap();
     solver.solve(&problem).unwrap();
     let beta = 0.95;
-    solver.set_tightening(Some(Tightening::new(beta, Matrix::<4, 4>::zeros()).unwrap())).unwrap();
+    solver
+        .set_tightening(Some(Tightening::new(beta, Matrix::<4, 4>::zeros()).unwrap()))
+        .unwrap();
     solver.tighten(&problem).unwrap();
 
     let z = normal_quantile(beta).unwrap();

@@ -21,7 +21,9 @@ fn sigma_w() -> Matrix<4, 4> {
 fn solved_point() -> (ddp_core::Problem<U4, U2>, SafeCddpSolver<U4, U2>) {
     let problem = reference::point_reach();
     let mut solver = SafeCddpSolver::new(&problem, vec![], Settings::default()).unwrap();
-    solver.set_tightening(Some(Tightening::new(0.95, sigma_w()).unwrap())).unwrap();
+    solver
+        .set_tightening(Some(Tightening::new(0.95, sigma_w()).unwrap()))
+        .unwrap();
     solver.solve(&problem).unwrap();
     solver.tighten(&problem).unwrap();
     (problem, solver)
@@ -146,7 +148,9 @@ fn moving_obstacle_margin_grows_along_the_horizon() {
         },
     )
     .unwrap();
-    solver.set_tightening(Some(Tightening::new(0.95, Matrix::zeros()).unwrap())).unwrap();
+    solver
+        .set_tightening(Some(Tightening::new(0.95, Matrix::zeros()).unwrap()))
+        .unwrap();
     solver.solve(&problem).unwrap();
     solver.tighten(&problem).unwrap();
     let margins: Vec<f64> = (0..solver.horizon() - 1).map(|k| solver.margins(k)[0]).collect();
@@ -196,7 +200,8 @@ fn car_n90() -> (ddp_core::Problem<U4, U2>, safe_cddp::Constraints<U4, U2>) {
         90,
     )
     .unwrap()
-    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap()).unwrap();
+    .with_control_bounds(ControlBounds::new(Vector::<2>::new(-0.4, -0.5), Vector::<2>::new(0.4, 0.5)).unwrap())
+    .unwrap();
     let obstacles: Vec<Arc<dyn Constraint<U4, U2>>> = vec![
         Arc::new(Circle::squared([1.0, 0.1], 0.35, [0, 1]).unwrap()),
         Arc::new(Circle::squared([2.0, -0.1], 0.35, [0, 1]).unwrap()),
@@ -224,7 +229,9 @@ fn tightened_car_converges_feasibly() {
         let deterministic = tightened.solve(&problem).unwrap().clone();
         assert_eq!(deterministic.status, safe_cddp::Status::Converged);
         let sigma_w = Matrix::<4, 4>::identity() * sigma;
-        tightened.set_tightening(Some(Tightening::new(0.99, sigma_w).unwrap())).unwrap();
+        tightened
+            .set_tightening(Some(Tightening::new(0.99, sigma_w).unwrap()))
+            .unwrap();
         let r = tightened.solve(&problem).unwrap().clone();
         assert_eq!(
             r.status,

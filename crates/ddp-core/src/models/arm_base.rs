@@ -1,8 +1,8 @@
 //! Planar free-floating base (a small satellite) carrying a 2-link arm.
 
-use nalgebra::{U10, U5};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Error, Matrix, Result, Vector};
+use nalgebra::{U10, U5};
 
 /// Physical parameters of an [`ArmBase`]. Plain data: [`ArmBase::from_params`] validates it.
 ///

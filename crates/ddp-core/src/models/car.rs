@@ -1,8 +1,8 @@
 //! Kinematic car with a speed state.
 
-use nalgebra::{U2, U4};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
+use nalgebra::{U2, U4};
 
 /// Kinematic car whose speed is a state: the Safe-CDDP car-like robot (after Xie et al. 2017) and
 /// benchmark P2 (`bench/problems.md`).

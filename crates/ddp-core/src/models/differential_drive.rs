@@ -1,8 +1,8 @@
 //! Differential-drive robot commanded by its wheel speeds.
 
-use nalgebra::{U2, U3};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
+use nalgebra::{U2, U3};
 
 /// Differential-drive robot (two driven wheels on one axle, e.g. a Turtlebot3) commanded by the
 /// ground speeds of its wheels.

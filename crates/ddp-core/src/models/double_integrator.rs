@@ -1,8 +1,8 @@
 //! Planar point mass driven by its acceleration.
 
-use nalgebra::{U2, U4};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
+use nalgebra::{U2, U4};
 
 /// A point mass in the plane, accelerated directly: the Safe-CDDP point robot and benchmark P3
 /// (`bench/problems.md`).

@@ -1,8 +1,8 @@
 //! Rigid-body quadrotor with ZYX Euler angles.
 
-use nalgebra::{U12, U4};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
+use nalgebra::{U12, U4};
 
 /// A quadrotor as a rigid body driven by its collective thrust and three body torques: the
 /// 12-state, 4-input quadrotor of the Safe-CDDP benchmark (Alcan and Kyrki (2022), Table I, after

@@ -1,8 +1,8 @@
 //! Kinematic unicycle driven by its speed and turn rate.
 
-use nalgebra::{U2, U3};
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
+use nalgebra::{U2, U3};
 
 /// Kinematic unicycle, exactly Crocoddyl's `ActionModelUnicycle` (benchmark P1 in
 /// `bench/problems.md`) and the sidewalk robot of DDPEN.

@@ -23,6 +23,7 @@
 
 use crate::boxqp::box_qp;
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
+use crate::error::{check_finite, Error};
 use crate::kernels::{
     add_to, cholesky_in_place, cholesky_solve_in_place, copy, mul_to, mul_vec_add, negate, sym_tr_mul2_add,
     sym_tr_mul_add, tr_mul_add, tr_mul_vec_add,
@@ -357,7 +358,14 @@ where
         k_fb: &mut MatrixN<NU, NX>,
     ) -> Result<GainsInfo, NotPositiveDefinite> {
         let b = self.bounds;
-        let qp = box_qp(&q.q_uu_r, &q.q_u, &(&b.lower - u), &(&b.upper - u), k_ff, self.iterations);
+        let qp = box_qp(
+            &q.q_uu_r,
+            &q.q_u,
+            &(&b.lower - u),
+            &(&b.upper - u),
+            k_ff,
+            self.iterations,
+        );
         let chol = qp.chol.ok_or(NotPositiveDefinite)?;
         k_fb.fill(0.0);
         let mut grad = 0.0;
@@ -483,7 +491,10 @@ pub struct MuSchedule {
 impl MuSchedule {
     /// The start of a solve.
     pub fn new(s: &RegularizationSettings) -> Self {
-        Self { mu: s.mu_init, dmu: 1.0 }
+        Self {
+            mu: s.mu_init,
+            dmu: 1.0,
+        }
     }
     /// Back to the start.
     pub fn reset(&mut self, s: &RegularizationSettings) {
@@ -593,6 +604,46 @@ where
         }
     }
 
+    /// Sets the nominal controls of the active horizon (length `n`, each of size `nu`, finite);
+    /// errors name `us` or `us[k]`.
+    pub fn set_controls(&mut self, us: &[VectorN<NU>]) -> crate::Result<()> {
+        let (n, nu) = (self.n, self.dims.nu());
+        if us.len() != n {
+            return Err(Error::Shape {
+                field: "us".into(),
+                got: format!("({}, {nu})", us.len()),
+                expected: format!("({n}, {nu})"),
+            });
+        }
+        for (k, u) in us.iter().enumerate() {
+            if u.len() != nu {
+                return Err(Error::Shape {
+                    field: format!("us[{k}]"),
+                    got: format!("({},)", u.len()),
+                    expected: format!("({nu},)"),
+                });
+            }
+            check_finite(&format!("us[{k}]"), u.iter())?;
+        }
+        for (dst, src) in self.traj.us.iter_mut().zip(us) {
+            dst.copy_from(src);
+        }
+        Ok(())
+    }
+
+    /// Rejects a problem of other sizes than this workspace's, naming `problem`.
+    pub fn check_dims(&self, problem: &Problem<NX, NU>) -> crate::Result<()> {
+        let (d, mine) = (problem.dims(), self.dims);
+        if d.nx() != mine.nx() || d.nu() != mine.nu() {
+            return Err(Error::Shape {
+                field: "problem".into(),
+                got: format!("(nx, nu) = ({}, {})", d.nx(), d.nu()),
+                expected: format!("({}, {}) (the sizes this solver was created for)", mine.nx(), mine.nu()),
+            });
+        }
+        Ok(())
+    }
+
     /// Projects the nominal controls onto `bounds` (if any).
     pub fn clamp_controls(&mut self, bounds: Option<&ControlBounds<NU>>) {
         if let Some(b) = bounds {
@@ -628,7 +679,13 @@ where
         for (k, knot) in problem.knots()[..n].iter().enumerate() {
             let (head, tail) = t.xs_try.split_at_mut(k + 1);
             let x = &head[k];
-            for ((d, a), b) in self.dx.as_mut_slice().iter_mut().zip(x.as_slice()).zip(t.xs[k].as_slice()) {
+            for ((d, a), b) in self
+                .dx
+                .as_mut_slice()
+                .iter_mut()
+                .zip(x.as_slice())
+                .zip(t.xs[k].as_slice())
+            {
                 *d = a - b;
             }
             mul_vec_add(&mut self.du, None, &self.policy.k_fb[k], &self.dx);

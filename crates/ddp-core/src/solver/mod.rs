@@ -29,8 +29,9 @@ pub mod core;
 pub mod settings;
 
 pub use self::core::{
-    armijo_accepts, backward_pass, line_search, BackwardOptions, BoxGains, ClampedGains, Core, Expected, FreeGains, Gains,
-    GainsInfo, Linearization, MuSchedule, NotPositiveDefinite, Policy, QBlocks, Trajectory, Trial, ValueFunction,
+    armijo_accepts, backward_pass, line_search, BackwardOptions, BoxGains, ClampedGains, Core, Expected, FreeGains,
+    Gains, GainsInfo, Linearization, MuSchedule, NotPositiveDefinite, Policy, QBlocks, Trajectory, Trial,
+    ValueFunction,
 };
 pub use self::settings::{
     IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Status,
@@ -38,7 +39,7 @@ pub use self::settings::{
 };
 
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
-use crate::error::{check_finite, Error, Result};
+use crate::error::{Error, Result};
 use crate::Problem;
 
 /// The solver and its workspace for problems with horizon `N`, `NX` states and `NU` controls
@@ -119,27 +120,7 @@ where
 
     /// Sets the initial guess of the next solve (length `N`, each of size `nu`, finite).
     pub fn set_controls(&mut self, us: &[VectorN<NU>]) -> Result<()> {
-        let (n, nu) = (self.core.n, self.core.dims.nu());
-        if us.len() != n {
-            return Err(Error::Shape {
-                field: "us".into(),
-                got: format!("({}, {nu})", us.len()),
-                expected: format!("({n}, {nu})"),
-            });
-        }
-        for (k, u) in us.iter().enumerate() {
-            if u.len() != nu {
-                return Err(Error::Shape {
-                    field: format!("us[{k}]"),
-                    got: format!("({},)", u.len()),
-                    expected: format!("({nu},)"),
-                });
-            }
-            check_finite(&format!("us[{k}]"), u.iter())?;
-        }
-        for (dst, src) in self.core.traj.us.iter_mut().zip(us) {
-            dst.copy_from(src);
-        }
+        self.core.set_controls(us)?;
         Ok(())
     }
 
@@ -288,7 +269,11 @@ where
     }
 
     /// The core's backward pass with this solver's gains: free, or box-DDP's under bounds.
-    fn backward_with(&mut self, problem: &Problem<NX, NU>, opts: BackwardOptions) -> std::result::Result<(), NotPositiveDefinite> {
+    fn backward_with(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        opts: BackwardOptions,
+    ) -> std::result::Result<(), NotPositiveDefinite> {
         let result = match problem.bounds() {
             None => self.core.backward(problem, &mut FreeGains, opts),
             Some(bounds) => self.core.backward(
@@ -380,15 +365,7 @@ where
                 expected: format!("{} (the horizon this solver was created for)", self.core.n),
             });
         }
-        let (d, mine) = (problem.dims(), self.core.dims);
-        if d.nx() != mine.nx() || d.nu() != mine.nu() {
-            return Err(Error::Shape {
-                field: "problem".into(),
-                got: format!("(nx, nu) = ({}, {})", d.nx(), d.nu()),
-                expected: format!("({}, {}) (the sizes this solver was created for)", mine.nx(), mine.nu()),
-            });
-        }
-        Ok(())
+        self.core.check_dims(problem)
     }
 
     /// Phase 1 of an iteration, exposed for benchmarks and solvers built on this one: the

@@ -114,10 +114,12 @@ where
             let (qa, qb) = (&self.qa[..count], &self.qb[..count]);
             let du = match self.qp.solve(h, &self.q, qa, qb, trust, &self.qguess) {
                 QpOutcome::Solved(du, _) => du,
-                QpOutcome::Infeasible if elastic => match self.qp.solve_elastic(h, &self.q, qa, qb, soft, trust, penalty) {
-                    Some((du, _)) => du,
-                    None => return Forward::Failed { knot: k },
-                },
+                QpOutcome::Infeasible if elastic => {
+                    match self.qp.solve_elastic(h, &self.q, qa, qb, soft, trust, penalty) {
+                        Some((du, _)) => du,
+                        None => return Forward::Failed { knot: k },
+                    }
+                }
                 QpOutcome::Infeasible => return Forward::Infeasible { knot: k, max_du },
                 QpOutcome::Failed => return Forward::Failed { knot: k },
             };

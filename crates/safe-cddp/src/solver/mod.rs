@@ -63,7 +63,6 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use ddp_core::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
-use ddp_core::error::check_finite;
 use ddp_core::solver::{armijo_accepts, line_search, BackwardOptions, Core, Trial};
 use ddp_core::{Error, Problem, Result};
 
@@ -263,7 +262,10 @@ where
         let slot = *self.rows.slots.get(index).ok_or_else(|| {
             Error::invalid(
                 "index",
-                format!("constraint {index} out of range ({} constraints)", self.rows.slots.len()),
+                format!(
+                    "constraint {index} out of range ({} constraints)",
+                    self.rows.slots.len()
+                ),
             )
         })?;
         if constraint.dim() != slot.dim || constraint.depends_on_control() != slot.mixed {
@@ -336,27 +338,7 @@ where
     }
     /// Sets the initial guess (length `n`, each of size `nu`, finite).
     pub fn set_controls(&mut self, us: &[VectorN<NU>]) -> Result<()> {
-        let (n, nu) = (self.core.n, self.core.dims.nu());
-        if us.len() != n {
-            return Err(Error::Shape {
-                field: "us".into(),
-                got: format!("({}, {nu})", us.len()),
-                expected: format!("({n}, {nu})"),
-            });
-        }
-        for (k, u) in us.iter().enumerate() {
-            if u.len() != nu {
-                return Err(Error::Shape {
-                    field: format!("us[{k}]"),
-                    got: format!("({},)", u.len()),
-                    expected: format!("({nu},)"),
-                });
-            }
-            check_finite(&format!("us[{k}]"), u.iter())?;
-        }
-        for (dst, src) in self.core.traj.us.iter_mut().zip(us) {
-            dst.copy_from(src);
-        }
+        self.core.set_controls(us)?;
         self.it.started = false;
         Ok(())
     }
@@ -420,7 +402,11 @@ where
         if row >= self.rows.bound_offset {
             return Some(k);
         }
-        let slot = self.rows.slots.iter().find(|s| row >= s.offset && row < s.offset + s.dim)?;
+        let slot = self
+            .rows
+            .slots
+            .iter()
+            .find(|s| row >= s.offset && row < s.offset + s.dim)?;
         slot.time(k, self.core.n)
     }
     /// The report of the last solve (or of the iterations since the last
@@ -454,15 +440,7 @@ where
                 expected: format!("at most {} (the capacity this solver was created for)", self.cap),
             });
         }
-        let (d, mine) = (problem.dims(), self.core.dims);
-        if d.nx() != mine.nx() || d.nu() != mine.nu() {
-            return Err(Error::Shape {
-                field: "problem".into(),
-                got: format!("(nx, nu) = ({}, {})", d.nx(), d.nu()),
-                expected: format!("({}, {}) (the sizes this solver was created for)", mine.nx(), mine.nu()),
-            });
-        }
-        Ok(())
+        self.core.check_dims(problem)
     }
 
     // ----------------------------------------------------------------------------------------
@@ -574,9 +552,8 @@ where
         self.warm.active = false;
         let max = self.violation_of(false, false).max;
         let s = self.settings;
-        self.warm.active = s.al_warm_start
-            && self.rows.bound_offset > 0
-            && (self.warm.cold || max > s.al_switch_violation);
+        self.warm.active =
+            s.al_warm_start && self.rows.bound_offset > 0 && (self.warm.cold || max > s.al_switch_violation);
         self.warm.rho = self.warm.rho.max(s.al_rho_init);
         self.warm.prev_violation = f64::INFINITY;
         self.warm.inner = 0;
@@ -638,7 +615,11 @@ where
 
     /// The core's backward pass with the KKT gains of this phase (full DDP first retries with
     /// the second-order terms gated, as `ddp-core`'s solver does).
-    fn backward_with(&mut self, problem: &Problem<NX, NU>, mu: f64) -> std::result::Result<(), ddp_core::solver::NotPositiveDefinite> {
+    fn backward_with(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        mu: f64,
+    ) -> std::result::Result<(), ddp_core::solver::NotPositiveDefinite> {
         let s = self.settings;
         let opts = BackwardOptions {
             mu,
@@ -654,7 +635,11 @@ where
         result
     }
 
-    fn kkt_backward(&mut self, problem: &Problem<NX, NU>, opts: BackwardOptions) -> std::result::Result<(), ddp_core::solver::NotPositiveDefinite> {
+    fn kkt_backward(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        opts: BackwardOptions,
+    ) -> std::result::Result<(), ddp_core::solver::NotPositiveDefinite> {
         let s = &self.settings;
         self.kkt.active = 0;
         let first_row = if self.warm.active { self.rows.bound_offset } else { 0 };
@@ -768,7 +753,14 @@ where
 
     /// Makes the trial the nominal trajectory, lowers `mu`, lets the trust region grow back, and
     /// runs the convergence tests (the warm-up's multiplier update, or the merit change).
-    fn accept_step(&mut self, problem: &Problem<NX, NU>, iteration: usize, alpha: f64, merit: f64, cost: f64) -> IterationOutcome {
+    fn accept_step(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        iteration: usize,
+        alpha: f64,
+        merit: f64,
+        cost: f64,
+    ) -> IterationOutcome {
         let s = self.settings;
         let change = self.it.merit - merit;
         self.core.traj.accept_trial();
@@ -783,8 +775,8 @@ where
         if self.warm.active {
             self.warm.inner += 1;
             let inner_done = change.abs() < s.al_inner_tolerance * (1.0 + self.it.merit.abs());
-            let converged =
-                (inner_done || self.warm.inner >= s.al_inner_iterations) && self.update_multipliers(problem, inner_done);
+            let converged = (inner_done || self.warm.inner >= s.al_inner_iterations)
+                && self.update_multipliers(problem, inner_done);
             return IterationOutcome::Accepted { step: alpha, converged };
         }
         let converged = change.abs() < s.tolerances.cost * (1.0 + self.core.cost.abs())
@@ -794,7 +786,12 @@ where
 
     /// No step was accepted: the warm-up updates its multipliers; a failed KKT/QP step hands
     /// over to the warm-up; otherwise `mu` is raised.
-    fn reject_step(&mut self, problem: &Problem<NX, NU>, iteration: usize, failure: Option<Status>) -> IterationOutcome {
+    fn reject_step(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        iteration: usize,
+        failure: Option<Status>,
+    ) -> IterationOutcome {
         let s = self.settings;
         self.log(iteration, 0.0, false);
         if self.warm.active {
@@ -889,7 +886,10 @@ where
             && matches!(status, Status::Converged | Status::MaxIterations)
         {
             let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
-            if let Some(knot) = self.rows.first_violating_knot(&self.constraints, xs, us, n, self.settings.constraint_tolerance) {
+            if let Some(knot) =
+                self.rows
+                    .first_violating_knot(&self.constraints, xs, us, n, self.settings.constraint_tolerance)
+            {
                 status = Status::Infeasible { knot };
             }
         }
@@ -1007,7 +1007,11 @@ where
         x[i] += 1e-3 * (1.0 + i as f64 / nx as f64);
     }
     // The state components any row depends on.
-    let (mut g, mut gx, mut gu) = (vec![0.0; max_dim], vec![dims.x_zeros(); max_dim], vec![dims.u_zeros(); max_dim]);
+    let (mut g, mut gx, mut gu) = (
+        vec![0.0; max_dim],
+        vec![dims.x_zeros(); max_dim],
+        vec![dims.u_zeros(); max_dim],
+    );
     let d = c.dim();
     let mut support = vec![false; nx];
     let mut probe = x.clone();
@@ -1045,4 +1049,3 @@ where
         ),
     ))
 }
-

@@ -195,7 +195,10 @@ where
                 Some(b) => (b.upper[i], b.lower[i]),
                 None => (f64::INFINITY, f64::NEG_INFINITY),
             };
-            for (row, present, g, sign) in [(up, hi_v.is_finite(), u[i] - hi_v, 1.0), (lo, lo_v.is_finite(), lo_v - u[i], -1.0)] {
+            for (row, present, g, sign) in [
+                (up, hi_v.is_finite(), u[i] - hi_v, 1.0),
+                (lo, lo_v.is_finite(), lo_v - u[i], -1.0),
+            ] {
                 self.present[row] = present;
                 self.g[row] = g;
                 self.c[row].fill(0.0);

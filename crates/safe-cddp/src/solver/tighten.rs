@@ -6,7 +6,9 @@
 //! that sit at a bound give no feedback, as in box-DDP.
 
 use ddp_core::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN};
-use ddp_core::solver::{backward_pass, BackwardOptions, ClampedGains, Linearization, Method, MuSchedule, Policy, QBlocks, ValueFunction};
+use ddp_core::solver::{
+    backward_pass, BackwardOptions, ClampedGains, Linearization, Method, MuSchedule, Policy, QBlocks, ValueFunction,
+};
 use ddp_core::{Problem, Result};
 
 use super::SafeCddpSolver;
@@ -100,7 +102,11 @@ where
                 }
                 let Some(t_row) = slot.time(k, n) else { continue };
                 let base = k * rows.m + slot.offset;
-                let (x, u) = if slot.mixed { (&xs[k], &us[k]) } else { (&xs[t_row], &rows.zero_u) };
+                let (x, u) = if slot.mixed {
+                    (&xs[k], &us[k])
+                } else {
+                    (&xs[t_row], &rows.zero_u)
+                };
                 self.constraints[j].parameter_variance(t_row, x, u, &mut rows.sw[..slot.dim]);
                 for r in 0..slot.dim {
                     let i = base + r;
@@ -146,7 +152,9 @@ where
         st.lin.compute_costs(problem, &self.core.traj.xs, &self.core.traj.us, n);
         let reg = &self.settings.regularization;
         let mut mu = MuSchedule::new(reg);
-        let mut gains = ClampedGains { bounds: problem.bounds() };
+        let mut gains = ClampedGains {
+            bounds: problem.bounds(),
+        };
         loop {
             let opts = BackwardOptions {
                 mu: mu.mu,

@@ -61,7 +61,9 @@ where
         w.active = true;
         w.prev_violation = f64::INFINITY;
         w.inner = 0;
-        w.rho = w.rho.clamp(s.al_rho_init, s.al_rho_init * s.al_rho_factor * s.al_rho_factor);
+        w.rho = w
+            .rho
+            .clamp(s.al_rho_init, s.al_rho_init * s.al_rho_factor * s.al_rho_factor);
         w.lambda.copy_from_slice(&self.rows.lambda);
         self.core.reg.reset(&s.regularization);
         self.it.trust = s.trust_region;
@@ -154,7 +156,11 @@ where
                     }
                 }
                 if any && self.settings.constraint_hessian {
-                    let (x, u) = if slot.mixed { (&xs[k], &us[k]) } else { (&xs[t], &rows.zero_u) };
+                    let (x, u) = if slot.mixed {
+                        (&xs[k], &us[k])
+                    } else {
+                        (&xs[t], &rows.zero_u)
+                    };
                     let target = if slot.mixed || t < n {
                         &mut lin.l[t.min(n - 1)].lxx
                     } else {

@@ -22,6 +22,7 @@ use safe_cddp::mpc::{Mpc as CoreMpc, MpcSettings};
 use safe_cddp::qp::QpMethod;
 use safe_cddp::{
     Constraint as CoreConstraint, Gains, Report, SafeCddpSolver as CoreSolver, Settings, Tightening as CoreTightening,
+    WarmUp,
 };
 
 use crate::convert::{finite_arr, row_major, rows_to_numpy, shape_str, stack_to_numpy, Arr};
@@ -583,7 +584,7 @@ pub(crate) fn safe_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("max_iterations", s.max_iterations)?;
     d.set_item("constraint_tolerance", s.constraint_tolerance)?;
     d.set_item("qp_method", qp_name(s.qp_method))?;
-    d.set_item("warm_up", s.al_warm_start)?;
+    d.set_item("warm_up", s.warm_up.as_str())?;
     Ok(d)
 }
 
@@ -605,9 +606,23 @@ fn settings_from(
     max_iterations: i64,
     constraint_tolerance: f64,
     qp_method: &str,
-    warm_up: bool,
+    warm_up: &str,
 ) -> CoreResult<Settings> {
     let method = parse_method(method)?;
+    let warm_up = [
+        WarmUp::Portfolio,
+        WarmUp::Barrier,
+        WarmUp::AugmentedLagrangian,
+        WarmUp::None,
+    ]
+    .into_iter()
+    .find(|w| w.as_str() == warm_up.to_ascii_lowercase())
+    .ok_or_else(|| {
+        invalid(
+            "warm_up",
+            format!("must be 'portfolio', 'barrier', 'augmented_lagrangian' or 'none', got '{warm_up}'"),
+        )
+    })?;
     let qp_method = match qp_method.to_ascii_lowercase().as_str() {
         "fast" => QpMethod::Fast,
         "clarabel" => QpMethod::Clarabel,
@@ -627,7 +642,7 @@ fn settings_from(
         max_iterations,
         constraint_tolerance,
         qp_method,
-        al_warm_start: warm_up,
+        warm_up,
         ..Settings::default()
     };
     s.validate()?;
@@ -827,11 +842,11 @@ impl SafeCddpSolver {
                         max_iterations = Settings::default().max_iterations as i64,
                         constraint_tolerance = Settings::default().constraint_tolerance,
                         qp_method = qp_name(Settings::default().qp_method),
-                        warm_up = Settings::default().al_warm_start))]
+                        warm_up = Settings::default().warm_up.as_str()))]
     // The defaults as Python sees them; tests compare them and the stub with `default_settings`.
     #[pyo3(
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
-                             constraint_tolerance=1e-8, qp_method='fast', warm_up=True)"
+                             constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio')"
     )]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -842,7 +857,7 @@ impl SafeCddpSolver {
         max_iterations: i64,
         constraint_tolerance: f64,
         qp_method: &str,
-        warm_up: bool,
+        warm_up: &str,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
         let settings = settings_from(method, max_iterations, constraint_tolerance, qp_method, warm_up)?;
@@ -959,6 +974,9 @@ pub struct SafeSolution {
     /// Accepted steps.
     #[pyo3(get)]
     iterations: usize,
+    /// Iterations of the `"portfolio"` start whose solution was not kept.
+    #[pyo3(get)]
+    discarded_iterations: usize,
     /// Final cost.
     #[pyo3(get)]
     cost: f64,
@@ -991,6 +1009,7 @@ impl SafeSolution {
             margins: rows_to_numpy(py, n, o.rows, o.margins)?.unbind(),
             status: r.status.as_str().to_string(),
             iterations: r.iterations,
+            discarded_iterations: r.discarded_iterations,
             cost: r.cost,
             max_violation: r.max_violation,
             max_violation_tightened: r.max_violation_tightened,
@@ -1146,7 +1165,7 @@ impl Mpc {
             max_iterations,
             d.constraint_tolerance,
             qp_name(d.qp_method),
-            d.al_warm_start,
+            d.warm_up.as_str(),
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);

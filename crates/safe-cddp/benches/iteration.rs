@@ -55,7 +55,7 @@ fn iteration(c: &mut Criterion) {
         solver.solve(&problem).unwrap();
         let us = solver.us().to_vec();
         let no_warmup = Settings {
-            al_warm_start: false,
+            warm_up: safe_cddp::WarmUp::None,
             ..settings
         };
         solver.set_settings(no_warmup).unwrap();

@@ -83,6 +83,19 @@ pub struct QpStats {
     pub elastic: usize,
 }
 
+impl std::ops::AddAssign for QpStats {
+    fn add_assign(&mut self, o: Self) {
+        self.solved += o.solved;
+        self.unconstrained += o.unconstrained;
+        self.active_set += o.active_set;
+        self.clarabel += o.clarabel;
+        self.clarabel_iterations += o.clarabel_iterations;
+        self.infeasible += o.infeasible;
+        self.failed += o.failed;
+        self.elastic += o.elastic;
+    }
+}
+
 /// Feasibility tolerance of a row, relative to `1 + |b_i|`.
 const FEAS_TOL: f64 = 1e-10;
 /// Working-set changes the active-set method may make before handing over to Clarabel.

@@ -6,6 +6,45 @@ use ddp_core::{Error, LineSearchSettings, Method, RegularizationSettings, Result
 
 use crate::qp::{QpMethod, QpStats};
 
+/// How a solve reaches the KKT/QP iterations of Xie et al. (2017).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WarmUp {
+    /// None: the KKT/QP iterations from the first iteration (the paper's scheme).
+    None,
+    /// Augmented-Lagrangian iterations: the constraint rows enter the cost as
+    /// `(max(0, lambda + rho g)^2 - lambda^2) / (2 rho)`, so the value function sees obstacles
+    /// ahead, and the multipliers are updated between inexact inner solves; the KKT/QP
+    /// iterations take over once the violation is below [`Settings::al_switch_violation`].
+    AugmentedLagrangian,
+    /// A cold start first follows a log-barrier homotopy: inexact DDP solves of the cost plus
+    /// `-mu sum log(-g)` (relaxed below a slack of [`Settings::barrier_relaxation`]) for `mu`
+    /// falling from [`Settings::barrier_mu_init`] to [`Settings::barrier_mu_final`], which keep
+    /// the trajectory away from the constraint boundary while the obstacles are being resolved,
+    /// as the interior-point methods do (Pavlov, Shames and Manzie 2021; IPOPT); then the
+    /// augmented-Lagrangian iterations and the KKT/QP iterations, with the barrier's multiplier
+    /// estimates `mu / -g` as the first multipliers. Warm starts that violate a row use the
+    /// augmented Lagrangian.
+    Barrier,
+    /// A cold start is solved twice from the same initial guess, once with each of the two
+    /// warm-ups above, and the better solution is kept (feasible first, then lower cost): the
+    /// two homotopies often end in different local optima around the obstacles, and their best
+    /// is far more often the best optimum IPOPT or FATROP find (`bench/peers/family.py`). Warm
+    /// starts and solves with a [`crate::Tightening`] use [`WarmUp::Barrier`]'s rule.
+    Portfolio,
+}
+
+impl WarmUp {
+    /// The name used in Python and in logs.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            WarmUp::None => "none",
+            WarmUp::AugmentedLagrangian => "augmented_lagrangian",
+            WarmUp::Barrier => "barrier",
+            WarmUp::Portfolio => "portfolio",
+        }
+    }
+}
+
 /// Settings of [`crate::SafeCddpSolver`]; validated when the solver is built.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
@@ -47,13 +86,21 @@ pub struct Settings {
     pub constraint_hessian: bool,
     /// Largest relative degree searched for a state-only constraint.
     pub max_relative_degree: usize,
-    /// Starts every solve with an augmented-Lagrangian warm-up: the constraint rows enter the
-    /// cost as `(max(0, lambda + rho g)^2 - lambda^2) / (2 rho)`, so the value function sees
-    /// obstacles ahead, and the multipliers are updated between inexact inner solves; Xie's
-    /// KKT/QP iterations take over once the violation is below `al_switch_violation`. Without
-    /// it, a far-off initial guess can drive the per-step QPs infeasible (a state constraint can
-    /// be moved by one control only a little).
-    pub al_warm_start: bool,
+    /// How a solve reaches the KKT/QP iterations of Xie et al. (2017) ([`WarmUp`]). Without a
+    /// warm-up, a far-off initial guess can drive the per-step QPs infeasible (a state
+    /// constraint can be moved by one control only a little).
+    pub warm_up: WarmUp,
+    /// Initial barrier parameter `mu` of [`WarmUp::Barrier`].
+    pub barrier_mu_init: f64,
+    /// Factor on `mu` after each inexact barrier subproblem, in (0, 1).
+    pub barrier_mu_factor: f64,
+    /// The barrier homotopy ends once `mu` falls below this.
+    pub barrier_mu_final: f64,
+    /// Relaxation `delta` of the barrier: below a slack of `delta` the logarithm continues as a
+    /// quadratic (Hauser and Saccon 2006), so an infeasible trajectory has a finite merit.
+    pub barrier_relaxation: f64,
+    /// Most accepted iterations per barrier subproblem.
+    pub barrier_inner_iterations: usize,
     /// Initial `rho` of the warm-up.
     pub al_rho_init: f64,
     /// Factor on `rho` when the violation did not fall to a quarter.
@@ -92,13 +139,21 @@ impl Default for Settings {
             qp_method: QpMethod::Fast,
             constraint_hessian: false,
             max_relative_degree: 4,
-            al_warm_start: true,
+            warm_up: WarmUp::Portfolio,
+            // Tuned on `bench/peers/family.py --seed 1` (checked on seed 2): one barrier
+            // subproblem of at most 10 iterations decides the way around the obstacles; more
+            // stages cost iterations without finding better optima.
+            barrier_mu_init: 3e-3,
+            barrier_mu_factor: 0.2,
+            barrier_mu_final: 1e-3,
+            barrier_relaxation: 1e-6,
+            barrier_inner_iterations: 10,
             al_rho_init: 10.0,
             al_rho_factor: 10.0,
             al_rho_max: 1e8,
             al_switch_violation: 1e-8,
             al_inner_tolerance: 1e-7,
-            al_inner_iterations: 20,
+            al_inner_iterations: 5,
         }
     }
 }
@@ -123,6 +178,12 @@ impl Settings {
         }
         if self.al_inner_iterations == 0 {
             return Err(Error::invalid("settings.al_inner_iterations", "must be at least 1"));
+        }
+        if self.barrier_inner_iterations == 0 {
+            return Err(Error::invalid(
+                "settings.barrier_inner_iterations",
+                "must be at least 1",
+            ));
         }
         if self.max_relative_degree == 0 {
             return Err(Error::invalid("settings.max_relative_degree", "must be at least 1"));
@@ -183,6 +244,30 @@ impl Settings {
             finite_nonneg(self.al_inner_tolerance),
             self.al_inner_tolerance,
             "finite and >= 0",
+        )?;
+        check(
+            "barrier_mu_init",
+            finite_pos(self.barrier_mu_init),
+            self.barrier_mu_init,
+            "finite and > 0",
+        )?;
+        check(
+            "barrier_mu_factor",
+            self.barrier_mu_factor > 0.0 && self.barrier_mu_factor < 1.0,
+            self.barrier_mu_factor,
+            "in (0, 1)",
+        )?;
+        check(
+            "barrier_mu_final",
+            finite_pos(self.barrier_mu_final) && self.barrier_mu_final <= self.barrier_mu_init,
+            self.barrier_mu_final,
+            "finite, > 0 and <= barrier_mu_init",
+        )?;
+        check(
+            "barrier_relaxation",
+            finite_pos(self.barrier_relaxation),
+            self.barrier_relaxation,
+            "finite and > 0",
         )?;
         check(
             "trust_shrink",
@@ -256,9 +341,9 @@ pub struct IterationLog {
     pub accepted: bool,
     /// Whether the constraints were tightened after this iteration.
     pub tightened: bool,
-    /// Whether this iteration belonged to the augmented-Lagrangian warm-up
-    /// ([`Settings::al_warm_start`]) rather than to the KKT/QP iterations.
-    pub warm_up: bool,
+    /// The warm-up phase this iteration belonged to ([`Settings::warm_up`]; `None`: the KKT/QP
+    /// iterations).
+    pub warm_up: Option<WarmUp>,
 }
 
 /// Outcome and statistics of a solve. Lives in the solver; `log` is allocated once.
@@ -288,12 +373,15 @@ pub struct Report {
     pub infeasible_forward_passes: usize,
     /// Constraint tightenings (eqs. 19-20).
     pub tightenings: usize,
-    /// QP counters (all forward passes of the solve).
+    /// QP counters (all forward passes of the solve, every start of a [`WarmUp::Portfolio`]).
     pub qp: QpStats,
     /// Iterations not logged because `log` was full (its capacity is `max_iterations + 1`; an
     /// MPC that drives [`crate::SafeCddpSolver::iterate`] by hand may go past it).
     pub log_dropped: usize,
-    /// Wall time of the solve.
+    /// Iterations of the [`WarmUp::Portfolio`] start whose solution was not kept (not in
+    /// `iterations` or `log`).
+    pub discarded_iterations: usize,
+    /// Wall time of the solve (every start of a [`WarmUp::Portfolio`]).
     pub solve_time: Duration,
     /// One row per iteration.
     pub log: Vec<IterationLog>,
@@ -316,6 +404,7 @@ impl Report {
             tightenings: 0,
             qp: QpStats::default(),
             log_dropped: 0,
+            discarded_iterations: 0,
             solve_time: Duration::ZERO,
             log: Vec::with_capacity(capacity),
         }
@@ -340,7 +429,11 @@ impl Report {
                     "  rejected"
                 },
                 if r.tightened { "  tightened" } else { "" },
-                if r.warm_up { "  al" } else { "" },
+                match r.warm_up {
+                    Some(WarmUp::Barrier) => "  barrier",
+                    Some(_) => "  al",
+                    None => "",
+                },
             ));
         }
         if self.log_dropped > 0 {

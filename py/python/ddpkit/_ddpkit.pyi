@@ -1076,12 +1076,17 @@ class Tightening:
 @final
 class SafeCddpSolver:
     """Safe-CDDP: constrained DDP (Xie et al. 2017: KKT backward pass over the active rows,
-    per-step QPs in the forward pass) after an augmented-Lagrangian warm-up, with the
-    chance-constraint margins of a :class:`Tightening` updated every ``n2`` iterations.
+    per-step QPs in the forward pass) after a warm-up, with the chance-constraint margins of a
+    :class:`Tightening` updated every ``n2`` iterations.
 
     ``constraints`` is a sequence of :class:`Constraint`; ``method`` ``"ilqr"`` or ``"ddp"``;
     ``qp_method`` ``"fast"`` (unconstrained / active-set / Clarabel) or ``"clarabel"``;
-    ``warm_up`` enables the augmented-Lagrangian warm-up. The workspace is allocated once;
+    ``warm_up`` how a solve reaches the KKT/QP iterations: ``"augmented_lagrangian"``,
+    ``"barrier"`` (a log-barrier subproblem first, which keeps the trajectory away from the
+    obstacles while it finds its way, then the augmented Lagrangian), ``"portfolio"`` (a cold
+    start solved with both, the better solution kept; warm starts use ``"barrier"``'s rule) or
+    ``"none"``. The report's ``discarded_iterations`` counts the iterations of the portfolio
+    start that was not kept. The workspace is allocated once;
     :meth:`solve` releases the GIL. Defaults: ``safe_cddp::Settings::default()`` (also
     :func:`default_settings` ``("SafeCddpSolver")``). Any ``(nx, nu)`` (see the module docs).
     """
@@ -1095,7 +1100,7 @@ class SafeCddpSolver:
         max_iterations: int = 200,
         constraint_tolerance: float = 1e-8,
         qp_method: str = "fast",
-        warm_up: bool = True,
+        warm_up: str = "portfolio",
     ) -> Self: ...
     def solve(self, us0: Optional[_ArrayLike] = None, warm_start: bool = False) -> SafeSolution:
         """Solves from ``us0`` (shape ``(n, nu)``), the last controls (``warm_start``) or zeros."""
@@ -1153,6 +1158,9 @@ class SafeSolution:
     @property
     def iterations(self) -> int:
         """Accepted steps."""
+    @property
+    def discarded_iterations(self) -> int:
+        """Iterations of the ``"portfolio"`` start whose solution was not kept."""
     @property
     def cost(self) -> float:
         """Final cost."""

@@ -69,9 +69,9 @@ use ddp_core::{Error, Problem, Result};
 use self::forward::{Forward, ForwardQp};
 use self::rows::{Merit, Rows, Slot, Violation};
 use self::tighten::Stochastic;
-use self::warm_up::WarmUp;
+use self::warm_up::WarmUpState;
 use self::working_set::{Kkt, KktGains};
-use crate::settings::{IterationLog, Report, Settings, Status};
+use crate::settings::{IterationLog, Report, Settings, Status, WarmUp};
 use crate::tightening::Tightening;
 use crate::Constraint;
 
@@ -134,10 +134,23 @@ where
     rows: Rows<NX, NU>,
     kkt: Kkt<NX, NU>,
     fwd: ForwardQp<NX, NU>,
-    warm: WarmUp,
+    warm: WarmUpState,
     stoch: Stochastic<NX, NU>,
     it: IterState,
     report: Report,
+    portfolio: Portfolio<NU>,
+}
+
+/// The buffers of [`WarmUp::Portfolio`]: the initial guess, the kept solution and its report.
+struct Portfolio<NU: Dim>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    guess: Vec<VectorN<NU>>,
+    best: Vec<VectorN<NU>>,
+    report: Report,
+    /// The warm-up of the start now running (`None`: the settings' rule).
+    member: Option<WarmUp>,
 }
 
 impl<NX: Dim, NU: Dim> std::fmt::Debug for SafeCddpSolver<NX, NU>
@@ -199,7 +212,7 @@ where
             core: Core::new(dims, cap, &settings.regularization),
             kkt: Kkt::new(dims, cap, m),
             fwd: ForwardQp::new(dims, m, settings.qp_method)?,
-            warm: WarmUp::new(cap * m, settings.al_rho_init),
+            warm: WarmUpState::new(cap * m, settings.al_rho_init, settings.barrier_mu_init),
             stoch: Stochastic::new(dims, cap),
             rows,
             it: IterState {
@@ -211,6 +224,12 @@ where
                 iteration: 0,
             },
             report: Report::new(settings.max_iterations + 1),
+            portfolio: Portfolio {
+                guess: vec![dims.u_zeros(); cap],
+                best: vec![dims.u_zeros(); cap],
+                report: Report::new(settings.max_iterations + 1),
+                member: None,
+            },
         })
     }
 
@@ -224,10 +243,10 @@ where
     /// Replaces the settings (validated; the log grows if `max_iterations` grows).
     pub fn set_settings(&mut self, settings: Settings) -> Result<()> {
         settings.validate()?;
-        if settings.max_iterations + 1 > self.report.log.capacity() {
-            self.report
-                .log
-                .reserve(settings.max_iterations + 1 - self.report.log.len());
+        for report in [&mut self.report, &mut self.portfolio.report] {
+            if settings.max_iterations + 1 > report.log.capacity() {
+                report.log.reserve(settings.max_iterations + 1 - report.log.len());
+            }
         }
         self.fwd.qp.set_method(settings.qp_method);
         self.settings = settings;
@@ -325,6 +344,12 @@ where
     /// after a reset are reproducible.
     pub fn reset(&mut self) {
         self.core.traj.us.iter_mut().for_each(|u| u.fill(0.0));
+        self.forget();
+    }
+
+    /// [`SafeCddpSolver::reset`] without the initial guess: the next solve is a cold start from
+    /// the controls in the workspace.
+    fn forget(&mut self) {
         self.core.policy.clear();
         self.stoch.k_prop.iter_mut().for_each(|k| k.fill(0.0));
         self.stoch.sigma.iter_mut().for_each(|s| s.fill(0.0));
@@ -454,6 +479,59 @@ where
     /// Errors only on bad input (a horizon or sizes other than the workspace's); the outcome is
     /// [`Report::status`].
     pub fn solve(&mut self, problem: &Problem<NX, NU>) -> Result<&Report> {
+        let portfolio = self.settings.warm_up == WarmUp::Portfolio
+            && self.warm.cold
+            && self.rows.bound_offset > 0
+            && self.stoch.tightening.is_none()
+            && self.initial_violation(problem)? <= self.settings.al_switch_violation;
+        if !portfolio {
+            self.portfolio.member = None;
+            self.solve_from_start(problem)?;
+            return Ok(&self.report);
+        }
+        let start = Instant::now();
+        let n = self.core.n;
+        let p = &mut self.portfolio;
+        p.guess[..n].clone_from_slice(&self.core.traj.us[..n]);
+        p.member = Some(WarmUp::AugmentedLagrangian);
+        self.solve_from_start(problem)?;
+        let p = &mut self.portfolio;
+        p.best[..n].clone_from_slice(&self.core.traj.us[..n]);
+        std::mem::swap(&mut self.report, &mut p.report);
+        self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
+        p.member = Some(WarmUp::Barrier);
+        self.forget();
+        self.solve_from_start(problem)?;
+        self.portfolio.member = None;
+        if better(&self.portfolio.report, &self.report, self.settings.constraint_tolerance) {
+            // Keep the first start's solution: its trajectory, and the gains and multipliers of
+            // a backward pass there (what the solve ended with).
+            std::mem::swap(&mut self.report, &mut self.portfolio.report);
+            self.core.traj.us[..n].clone_from_slice(&self.portfolio.best[..n]);
+            self.core.rollout(problem);
+            self.warm.active = false;
+            self.linearize_now(problem);
+            let _ = self.compute_direction(problem);
+            self.warm.lambda.copy_from_slice(&self.rows.lambda);
+            self.refresh_merit();
+        }
+        self.report.discarded_iterations = self.portfolio.report.iterations;
+        let discarded_qps = self.portfolio.report.qp;
+        self.report.qp += discarded_qps;
+        self.report.solve_time = start.elapsed();
+        Ok(&self.report)
+    }
+
+    /// The largest violation of the initial guess (projected onto the bounds, rolled out).
+    fn initial_violation(&mut self, problem: &Problem<NX, NU>) -> Result<f64> {
+        self.check_problem(problem)?;
+        self.core.clamp_controls(problem.bounds());
+        self.core.rollout(problem);
+        Ok(self.violation_of(false, false).max)
+    }
+
+    /// One solve from the current initial guess (the body of [`SafeCddpSolver::solve`]).
+    fn solve_from_start(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
         let start = Instant::now();
         self.start(problem)?;
         let mut status = Status::MaxIterations;
@@ -504,8 +582,9 @@ where
             }
         }
         self.finish(status);
+        self.report.discarded_iterations = 0;
         self.report.solve_time = start.elapsed();
-        Ok(&self.report)
+        Ok(())
     }
 
     /// Whether Algorithm 1 tightens now, `since` iterations after the last tightening: every
@@ -553,7 +632,18 @@ where
         let max = self.violation_of(false, false).max;
         let s = self.settings;
         self.warm.active =
-            s.al_warm_start && self.rows.bound_offset > 0 && (self.warm.cold || max > s.al_switch_violation);
+            s.warm_up != WarmUp::None && self.rows.bound_offset > 0 && (self.warm.cold || max > s.al_switch_violation);
+        // The barrier homotopy chooses the way around the obstacles from a feasible cold start; a
+        // warm start has chosen, and an infeasible start has no interior to keep to (its relaxed
+        // barrier would be a penalty of curvature `mu / delta^2`): both take the augmented
+        // Lagrangian.
+        let method = self.portfolio.member.unwrap_or(s.warm_up);
+        self.warm.barrier = self.warm.active
+            && self.warm.cold
+            && max <= s.al_switch_violation
+            && matches!(method, WarmUp::Barrier | WarmUp::Portfolio);
+        self.warm.mu = s.barrier_mu_init;
+        self.warm.fresh = true;
         self.warm.rho = self.warm.rho.max(s.al_rho_init);
         self.warm.prev_violation = f64::INFINITY;
         self.warm.inner = 0;
@@ -658,7 +748,13 @@ where
     fn stopping_criteria(&mut self, problem: &Problem<NX, NU>, iteration: usize) -> Option<IterationOutcome> {
         let tol = self.settings.tolerances.gradient;
         let gradient = self.core.expected.gradient;
-        if self.warm.active && gradient < tol {
+        // A barrier subproblem is solved to within 10 mu, as IPOPT's (kappa_epsilon = 10).
+        let inner_tol = if self.warm.barrier {
+            (10.0 * self.warm.mu).powi(2)
+        } else {
+            tol
+        };
+        if self.warm.active && gradient < inner_tol {
             // The inner problem is solved: update the multipliers.
             self.log(iteration, 0.0, false);
             if self.update_multipliers(problem, true) {
@@ -775,8 +871,12 @@ where
         if self.warm.active {
             self.warm.inner += 1;
             let inner_done = change.abs() < s.al_inner_tolerance * (1.0 + self.it.merit.abs());
-            let converged = (inner_done || self.warm.inner >= s.al_inner_iterations)
-                && self.update_multipliers(problem, inner_done);
+            let limit = if self.warm.barrier {
+                s.barrier_inner_iterations
+            } else {
+                s.al_inner_iterations
+            };
+            let converged = (inner_done || self.warm.inner >= limit) && self.update_multipliers(problem, inner_done);
             return IterationOutcome::Accepted { step: alpha, converged };
         }
         let converged = change.abs() < s.tolerances.cost * (1.0 + self.core.cost.abs())
@@ -798,7 +898,7 @@ where
             if self.update_multipliers(problem, true) {
                 return IterationOutcome::Converged;
             }
-        } else if s.al_warm_start && self.rows.bound_offset > 0 {
+        } else if s.warm_up != WarmUp::None && self.rows.bound_offset > 0 {
             // The KKT/QP step failed: typically a constraint row that the backward pass left out
             // (pruned, or dependent on a control bound at a tangency) binds in a forward QP,
             // whose control can move a relative-degree-r row only by O(dt^r), so the QP answers
@@ -873,7 +973,11 @@ where
                 active: self.kkt.active,
                 accepted,
                 tightened: false,
-                warm_up: self.warm.active,
+                warm_up: self.warm.active.then_some(if self.warm.barrier {
+                    WarmUp::Barrier
+                } else {
+                    WarmUp::AugmentedLagrangian
+                }),
             });
         } else {
             self.report.log_dropped += 1;
@@ -882,8 +986,14 @@ where
 
     fn finish(&mut self, mut status: Status) {
         let n = self.core.n;
+        // A solve that ends (converged, stuck or out of iterations) on a trajectory that violates
+        // a row has found no feasible point near it: a point of local infeasibility, as IPOPT
+        // reports it.
         if self.it.violation_max > self.settings.constraint_tolerance
-            && matches!(status, Status::Converged | Status::MaxIterations)
+            && !matches!(
+                status,
+                Status::NumericalError | Status::QpFailed { .. } | Status::Infeasible { .. }
+            )
         {
             let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
             if let Some(knot) =
@@ -911,6 +1021,8 @@ where
     fn violation_of(&mut self, trial: bool, phase: bool) -> Violation {
         let merit = if !phase {
             Merit::Penalty(0.0)
+        } else if self.warm.active && self.warm.barrier {
+            self.barrier_merit()
         } else if self.warm.active {
             Merit::Lagrangian {
                 lambda: &self.warm.lambda,
@@ -938,6 +1050,10 @@ where
     fn linearize_now(&mut self, problem: &Problem<NX, NU>) {
         self.core.linearize(problem);
         let n = self.core.n;
+        let barrier = self.warm.active && self.warm.barrier;
+        if barrier {
+            self.save_slacks();
+        }
         let hessian = self.settings.constraint_hessian && !self.warm.active;
         self.rows.linearize(
             &self.constraints,
@@ -949,10 +1065,25 @@ where
             n,
             hessian.then_some(&mut self.kkt.h_con[..]),
         );
+        if barrier {
+            self.update_barrier_duals();
+        }
         if self.warm.active {
-            self.add_al_derivatives();
+            self.add_warm_up_derivatives();
         }
         self.it.need_linearize = false;
+    }
+}
+
+/// Whether solve `a` is better than solve `b`: feasible (within `tol`) before infeasible, then
+/// the lower cost, or among infeasible ones the smaller violation.
+fn better(a: &Report, b: &Report, tol: f64) -> bool {
+    let (fa, fb) = (a.max_violation_tightened <= tol, b.max_violation_tightened <= tol);
+    match (fa, fb) {
+        (true, false) => true,
+        (false, true) => false,
+        (true, true) => a.cost < b.cost,
+        (false, false) => a.max_violation_tightened < b.max_violation_tightened,
     }
 }
 

@@ -69,20 +69,64 @@ where
 /// The merit terms of the constraint rows along a trajectory (see [`Rows::violation`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Violation {
-    /// The merit term: `rho sum max(0, g~)`, or the augmented-Lagrangian sum in the warm-up.
+    /// The merit term: `rho sum max(0, g~)`, or the warm-up's augmented-Lagrangian or barrier sum.
     pub term: f64,
     /// The largest violation of a tightened row.
     pub max: f64,
 }
 
-/// How the merit weighs violations: the exact penalty of the KKT phase or the
-/// augmented-Lagrangian term of the warm-up.
+/// How the merit weighs violations: the exact penalty of the KKT phase, the
+/// augmented-Lagrangian term or the relaxed log barrier of the warm-up.
 #[derive(Clone, Copy)]
 pub(crate) enum Merit<'a> {
     /// `rho sum max(0, g~)`
     Penalty(f64),
     /// `sum (max(0, lambda + rho g~)^2 - lambda^2) / (2 rho)`
     Lagrangian { lambda: &'a [f64], rho: f64 },
+    /// `sum B(-g~)` with the relaxed barrier `B` of [`barrier`].
+    Barrier { mu: f64, delta: f64 },
+}
+
+impl Merit<'_> {
+    /// The merit term of row `i` at `v = g~` and its first and second derivatives in `v`: the
+    /// weight of `g~_x` in the cost gradient (a multiplier estimate, `>= 0`) and of
+    /// `g~_x g~_x^T` in the Gauss-Newton Hessian.
+    #[inline]
+    pub fn row(&self, i: usize, v: f64) -> (f64, f64, f64) {
+        match *self {
+            Merit::Penalty(rho) => (rho * v.max(0.0), if v > 0.0 { rho } else { 0.0 }, 0.0),
+            Merit::Lagrangian { lambda, rho } => {
+                let lam = lambda[i];
+                let nu = (lam + rho * v).max(0.0);
+                (
+                    (nu * nu - lam * lam) / (2.0 * rho),
+                    nu,
+                    if nu > 0.0 { rho } else { 0.0 },
+                )
+            }
+            Merit::Barrier { mu, delta } => barrier(-v, mu, delta),
+        }
+    }
+}
+
+/// The relaxed logarithmic barrier of a slack `z = -g~` (Hauser and Saccon 2006):
+/// `-mu ln z` for `z >= delta`, and below `delta` the quadratic that continues it with the same
+/// value, slope and curvature, `mu (((z - 2 delta) / delta)^2 / 2 - 1/2 - ln delta)`. Returns the
+/// value and its first and second derivatives in `g~ = -z` (`mu / z` and `mu / z^2` in the
+/// interior): finite everywhere, so an infeasible trajectory has a merit, and the quadratic's
+/// curvature `mu / delta^2` pushes it back.
+#[inline]
+pub(crate) fn barrier(z: f64, mu: f64, delta: f64) -> (f64, f64, f64) {
+    if z >= delta {
+        (-mu * z.ln(), mu / z, mu / (z * z))
+    } else {
+        let s = (z - 2.0 * delta) / delta;
+        (
+            mu * (0.5 * s * s - 0.5 - delta.ln()),
+            mu * (2.0 * delta - z) / (delta * delta),
+            mu / (delta * delta),
+        )
+    }
 }
 
 impl<NX: Dim, NU: Dim> Rows<NX, NU>
@@ -250,22 +294,11 @@ where
         n: usize,
         merit: Merit<'_>,
     ) -> Violation {
-        let (mut sum, mut al, mut max) = (0.0, 0.0, 0.0f64);
+        let (mut term, mut max) = (0.0, 0.0f64);
         self.for_each_row(constraints, xs, us, n, |_, i, v| {
-            if v > 0.0 {
-                sum += v;
-                max = max.max(v);
-            }
-            if let Merit::Lagrangian { lambda, rho } = merit {
-                let lam = lambda[i];
-                let nu = (lam + rho * v).max(0.0);
-                al += (nu * nu - lam * lam) / (2.0 * rho);
-            }
+            max = max.max(v);
+            term += merit.row(i, v).0;
         });
-        let term = match merit {
-            Merit::Penalty(rho) => rho * sum,
-            Merit::Lagrangian { .. } => al,
-        };
         Violation { term, max }
     }
 

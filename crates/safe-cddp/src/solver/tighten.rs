@@ -129,7 +129,8 @@ where
         // the trajectory infeasible, the warm-up restores feasibility (the per-step QPs cannot
         // move a state constraint far), starting from the current multipliers.
         let max = self.violation_of(false, false).max;
-        if !self.warm.active && self.settings.al_warm_start && max > self.settings.al_switch_violation {
+        if !self.warm.active && self.settings.warm_up != crate::WarmUp::None && max > self.settings.al_switch_violation
+        {
             self.enter_warm_up();
         }
         self.refresh_merit();

@@ -1,4 +1,5 @@
-//! The augmented-Lagrangian warm-up ([`crate::Settings::al_warm_start`]).
+//! The warm-ups ([`crate::Settings::warm_up`]): the barrier homotopy and the augmented
+//! Lagrangian.
 //!
 //! A state constraint can be moved by one knot's control only a little (`C` is `O(dt^2)` for the
 //! point robot and the car), so from a far-off guess the per-step QPs turn infeasible and the
@@ -7,17 +8,36 @@
 //! `(max(0, lambda + rho g~)^2 - lambda^2) / (2 rho)` (so `V_x` carries them backwards), control
 //! bounds stay in the KKT working set, the forward pass is the core's rollout (no QPs), and the
 //! multipliers are updated between inexact inner solves, `lambda <- max(0, lambda + rho g~)`.
+//!
+//! The barrier homotopy ([`crate::WarmUp::Barrier`]) runs before it on a cold start, on the same
+//! steps: the rows enter the cost as the relaxed barrier `B(-g~)` of `mu` (`rows::barrier`), and
+//! instead of a multiplier update `mu` falls by [`crate::Settings::barrier_mu_factor`] after
+//! each inexact inner solve. Where the trajectory goes around an obstacle is decided while the
+//! barrier keeps it away from every boundary, as in interior-point methods (Pavlov, Shames and
+//! Manzie 2021); an augmented-Lagrangian or active-set solve from a trajectory that cuts through
+//! obstacles instead pushes each knot out of the nearest side. Once `mu` is below
+//! [`crate::Settings::barrier_mu_final`] the barrier's multiplier estimates `mu / -g~` become the
+//! first multipliers of the next phase.
 
 use ddp_core::dims::{Alloc, DefaultAllocator, Dim};
 use ddp_core::Problem;
 
+use super::rows::Merit;
 use super::SafeCddpSolver;
 
 /// State of the warm-up.
 #[derive(Debug, Clone)]
-pub(crate) struct WarmUp {
+pub(crate) struct WarmUpState {
     /// The warm-up is running (rather than Xie's KKT/QP iterations).
     pub active: bool,
+    /// The warm-up is in its barrier homotopy (rather than the augmented Lagrangian).
+    pub barrier: bool,
+    /// The barrier parameter `mu`.
+    pub mu: f64,
+    /// Slacks `-g~` of every row at the previous linearisation (the barrier's dual update).
+    pub z_prev: Vec<f64>,
+    /// The barrier's duals have not been estimated yet in this homotopy.
+    pub fresh: bool,
     /// Penalty `rho`.
     pub rho: f64,
     /// Multipliers per row.
@@ -34,10 +54,14 @@ pub(crate) struct WarmUp {
     pub cold: bool,
 }
 
-impl WarmUp {
-    pub fn new(rows: usize, rho: f64) -> Self {
+impl WarmUpState {
+    pub fn new(rows: usize, rho: f64, mu: f64) -> Self {
         Self {
             active: false,
+            barrier: false,
+            mu,
+            z_prev: vec![0.0; rows],
+            fresh: true,
             rho,
             lambda: vec![0.0; rows],
             prev_violation: f64::INFINITY,
@@ -59,6 +83,7 @@ where
         let s = &self.settings;
         let w = &mut self.warm;
         w.active = true;
+        w.barrier = false;
         w.prev_violation = f64::INFINITY;
         w.inner = 0;
         w.rho = w
@@ -79,6 +104,10 @@ where
     pub(super) fn update_multipliers(&mut self, problem: &Problem<NX, NU>, inner_done: bool) -> bool {
         if self.it.need_linearize {
             self.linearize_now(problem);
+        }
+        if self.warm.barrier {
+            self.lower_barrier();
+            return false;
         }
         let s = self.settings;
         let w = &mut self.warm;
@@ -102,22 +131,115 @@ where
             w.rho = (w.rho * s.al_rho_factor).min(s.al_rho_max);
         }
         if self.it.violation_max <= s.al_switch_violation && !w.kkt_failed {
-            // Hand over to Xie's method with the multipliers as the first estimate.
-            w.active = false;
-            w.cold = false;
-            self.rows.lambda.copy_from_slice(&w.lambda);
-            self.core.reg.reset(&s.regularization);
+            self.hand_over();
         }
         self.refresh_merit();
         self.it.need_linearize = true;
         converged
     }
 
-    /// Adds the warm-up's augmented-Lagrangian terms of every constraint row to the cost
-    /// derivatives at the row's own time (state rows at `x_t`, mixed rows at `(x_k, u_k)`).
-    pub(super) fn add_al_derivatives(&mut self) {
+    /// Hands over to Xie's method with the warm-up's multipliers as the first estimate.
+    fn hand_over(&mut self) {
+        let w = &mut self.warm;
+        w.active = false;
+        w.barrier = false;
+        w.cold = false;
+        self.rows.lambda.copy_from_slice(&w.lambda);
+        self.core.reg.reset(&self.settings.regularization);
+    }
+
+    /// The end of a barrier subproblem (rows linearised at the current trajectory): lowers `mu`;
+    /// below [`crate::Settings::barrier_mu_final`] the homotopy ends with the multiplier
+    /// estimates `B'(-g~)` (`mu / -g~` in the interior) as the first multipliers of the
+    /// augmented Lagrangian, which hands over to the KKT/QP iterations once the violation is
+    /// small. (Handing a feasible trajectory straight to the KKT/QP iterations fails: rows at a
+    /// slack of `mu / lambda` are outside their active set, and the first QP step runs into them.)
+    fn lower_barrier(&mut self) {
+        let s = self.settings;
+        let merit = self.barrier_merit();
+        let w = &mut self.warm;
+        w.inner = 0;
+        w.mu *= s.barrier_mu_factor;
+        if w.mu < s.barrier_mu_final {
+            let rows = &self.rows;
+            for k in 0..self.core.n {
+                for i in 0..rows.bound_offset {
+                    let idx = k * rows.m + i;
+                    w.lambda[idx] = if rows.present[idx] {
+                        merit.row(idx, rows.g[idx] + rows.margin[idx]).1
+                    } else {
+                        0.0
+                    };
+                }
+            }
+            w.barrier = false;
+            w.prev_violation = f64::INFINITY;
+        }
+        self.refresh_merit();
+        self.it.need_linearize = true;
+    }
+
+    /// The primal-dual update of the barrier's duals `lambda` after the trajectory moved the
+    /// slacks from `z_prev` to `z` (rows linearised at the new trajectory): the Newton step on
+    /// the complementarity `z lambda = mu`, `lambda+ = (mu - lambda (z - z_prev)) / z_prev`,
+    /// kept within `[mu / (kappa z), kappa mu / z]` (`kappa = 1e10`, as IPOPT's safeguard). The
+    /// first update of a homotopy starts on the central path, `lambda = mu / z`.
+    pub(super) fn update_barrier_duals(&mut self) {
+        const KAPPA: f64 = 1e10;
+        let (mu, delta) = (self.warm.mu, self.settings.barrier_relaxation);
+        let rows = &self.rows;
+        let w = &mut self.warm;
+        for k in 0..self.core.n {
+            for i in 0..rows.bound_offset {
+                let idx = k * rows.m + i;
+                if !rows.present[idx] {
+                    w.lambda[idx] = 0.0;
+                    continue;
+                }
+                let z = (-(rows.g[idx] + rows.margin[idx])).max(delta);
+                let central = mu / z;
+                w.lambda[idx] = if w.fresh {
+                    central
+                } else {
+                    let z0 = w.z_prev[idx].max(delta);
+                    ((mu - w.lambda[idx] * (z - z0)) / z0).clamp(central / KAPPA, central * KAPPA)
+                };
+            }
+        }
+        w.fresh = false;
+    }
+
+    /// Saves the slacks of the current linearisation before the next one.
+    pub(super) fn save_slacks(&mut self) {
+        let rows = &self.rows;
+        for (z, (g, m)) in self.warm.z_prev.iter_mut().zip(rows.g.iter().zip(&rows.margin)) {
+            *z = -(g + m);
+        }
+    }
+
+    /// The barrier of the current `mu` as a merit.
+    pub(super) fn barrier_merit(&self) -> Merit<'static> {
+        Merit::Barrier {
+            mu: self.warm.mu,
+            delta: self.settings.barrier_relaxation,
+        }
+    }
+
+    /// Adds the warm-up's terms (augmented Lagrangian or barrier) of every constraint row to
+    /// the cost derivatives at the row's own time (state rows at `x_t`, mixed rows at
+    /// `(x_k, u_k)`): the gradient `B' g_x` and the Gauss-Newton Hessian `B'' g_x g_x^T`, plus
+    /// `B' g_xx` with [`crate::Settings::constraint_hessian`].
+    pub(super) fn add_warm_up_derivatives(&mut self) {
         let n = self.core.n;
-        let rho = self.warm.rho;
+        let (barrier, delta) = (self.warm.barrier, self.settings.barrier_relaxation);
+        let merit = if self.warm.barrier {
+            self.barrier_merit()
+        } else {
+            Merit::Lagrangian {
+                lambda: &self.warm.lambda,
+                rho: self.warm.rho,
+            }
+        };
         let rows = &mut self.rows;
         let lin = &mut self.core.lin;
         let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
@@ -132,7 +254,12 @@ where
                 for r in 0..slot.dim {
                     let i = base + r;
                     let v = rows.g[i] + rows.margin[i];
-                    let nu = (self.warm.lambda[i] + rho * v).max(0.0);
+                    let (_, nu, mut rho) = merit.row(i, v);
+                    if barrier && -v >= delta {
+                        // Primal-dual curvature lambda / z rather than the primal mu / z^2,
+                        // which overstates it off the central path (Pavlov et al. 2021).
+                        rho = self.warm.lambda[i] / -v;
+                    }
                     rows.sw[r] = nu;
                     if nu <= 0.0 {
                         continue;
@@ -155,7 +282,10 @@ where
                         l.lxx.ger(rho, gx, gx, 1.0);
                     }
                 }
-                if any && self.settings.constraint_hessian {
+                // The barrier's curvature term `B' g_xx` is always in: without it the model
+                // overstates the curvature around an obstacle (`g_xx` is negative definite
+                // there) and the steps stay short.
+                if any && (self.settings.constraint_hessian || barrier) {
                     let (x, u) = if slot.mixed {
                         (&xs[k], &us[k])
                     } else {

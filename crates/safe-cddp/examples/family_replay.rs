@@ -1,0 +1,169 @@
+//! Replays the problems of a `bench/peers/family.py --json` file with `SafeCddpSolver` and
+//! compares with the peers' costs and times stored there (a development loop for the warm-up
+//! settings; the benchmark of record is `family.py` itself, which runs every solver in one
+//! process).
+//!
+//! ```sh
+//! cargo run --release -p safe-cddp --example family_replay -- family.json [warm_up] [mu_init] \
+//!     [mu_factor] [mu_final] [inner] [relaxation]
+//! ```
+use std::time::Instant;
+
+use safe_cddp::benchmark::BenchmarkProblem;
+use safe_cddp::{SafeCddpSolver, Settings, WarmUp};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let path = args.get(1).ok_or("usage: family_replay FILE.json [warm_up ...]")?;
+    let text = std::fs::read_to_string(path)?;
+    let doc: serde_json::Value = serde_json::from_str(&text)?;
+    let mut s = Settings::default();
+    let arg = |i: usize| args.get(i).map(|a| a.parse::<f64>()).transpose();
+    if let Some(w) = args.get(2) {
+        s.warm_up = match w.as_str() {
+            "barrier" => WarmUp::Barrier,
+            "al" => WarmUp::AugmentedLagrangian,
+            "portfolio" => WarmUp::Portfolio,
+            "none" => WarmUp::None,
+            other => return Err(format!("unknown warm-up {other}").into()),
+        };
+    }
+    if let Some(v) = arg(3)? {
+        s.barrier_mu_init = v;
+    }
+    if let Some(v) = arg(4)? {
+        s.barrier_mu_factor = v;
+    }
+    if let Some(v) = arg(5)? {
+        s.barrier_mu_final = v;
+    }
+    if let Some(v) = arg(6)? {
+        s.barrier_inner_iterations = v as usize;
+    }
+    if let Some(v) = arg(7)? {
+        s.barrier_relaxation = v;
+    }
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    if let Some(v) = env("AL_RHO") {
+        s.al_rho_init = v;
+    }
+    if let Some(v) = env("AL_INNER") {
+        s.al_inner_iterations = v as usize;
+    }
+    if let Some(v) = env("AL_TOL") {
+        s.al_inner_tolerance = v;
+    }
+    let only = std::env::var("ONLY").ok();
+    let problems = doc["problems"].as_array().ok_or("no problems")?;
+    let (mut matched, mut total, mut log_ratio, mut worst) = (0, 0, 0.0, 0.0f64);
+    let (mut sum_ms, mut sum_iters) = (0.0, 0usize);
+    for rec in problems {
+        let id = rec["id"].as_str().unwrap_or("?");
+        if only.as_deref().is_some_and(|o| !id.contains(o)) {
+            continue;
+        }
+        let spec = serde_json::to_string(&rec["spec"])?;
+        let bp = BenchmarkProblem::from_json(&spec)?;
+        let mut best = f64::INFINITY;
+        let mut ipopt_ms = f64::NAN;
+        for peer in ["ipopt", "fatrop"] {
+            let r = &rec["solvers"][peer];
+            if r["feasible"].as_bool() == Some(true) {
+                best = best.min(r["cost"].as_f64().unwrap_or(f64::INFINITY));
+            }
+        }
+        if let Some(ms) = rec["solvers"]["ipopt"]["ms"].as_f64() {
+            ipopt_ms = ms;
+        }
+        let variants: Vec<Settings> = if std::env::var("PORTFOLIO").is_ok() {
+            vec![
+                Settings {
+                    warm_up: WarmUp::AugmentedLagrangian,
+                    ..s
+                },
+                s,
+            ]
+        } else {
+            vec![s]
+        };
+        let mut out = (f64::INFINITY, f64::INFINITY, 0, safe_cddp::Status::MaxIterations, 0.0);
+        for v in variants {
+            let (cost, viol, iters, status, ms) = solve_one(&bp, v)?;
+            let better = (viol <= 1e-6 && (out.1 > 1e-6 || cost < out.0)) || (out.1 > 1e-6 && viol < out.1);
+            if better {
+                out = (cost, viol, out.2 + iters, status, out.4 + ms);
+            } else {
+                out.2 += iters;
+                out.4 += ms;
+            }
+        }
+        let (cost, viol, iters, status, ms) = out;
+        sum_ms += ms;
+        sum_iters += iters;
+        let gap = (cost - best) / best.abs();
+        let ok = viol <= 1e-6 && cost <= best * (1.0 + 1e-6);
+        total += 1;
+        matched += usize::from(ok);
+        let ratio = ms / ipopt_ms;
+        log_ratio += ratio.ln();
+        worst = worst.max(ratio);
+        println!(
+            "{id:24} {} gap {gap:+.2e} viol {viol:.1e} it {iters:4} {:14} t/IPOPT {ratio:.3}",
+            if ok { "match" } else { "MISS " },
+            status.as_str()
+        );
+    }
+    println!(
+        "matched {matched}/{total} ({:.1}%), t/IPOPT geomean {:.4} worst {:.3}",
+        100.0 * matched as f64 / total.max(1) as f64,
+        (log_ratio / total.max(1) as f64).exp(),
+        worst
+    );
+    println!(
+        "total {sum_ms:.1} ms, {sum_iters} iterations ({:.2} us per iteration)",
+        1e3 * sum_ms / sum_iters.max(1) as f64
+    );
+    Ok(())
+}
+
+type Outcome = (f64, f64, usize, safe_cddp::Status, f64);
+
+fn solve_one(bp: &BenchmarkProblem, s: Settings) -> Result<Outcome, Box<dyn std::error::Error>> {
+    let table = std::env::var("TABLE").is_ok();
+    macro_rules! run {
+        ($pc:expr) => {{
+            let (problem, constraints) = $pc;
+            let mut solver = SafeCddpSolver::new(&problem, constraints, s)?;
+            let t = Instant::now();
+            let r = solver.solve(&problem)?;
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            if table {
+                println!("{}", r.table());
+            }
+            if std::env::var("QPS").is_ok() {
+                println!("  qp: {:?}", r.qp);
+            }
+            if std::env::var("PHASES").is_ok() {
+                let count = |w: Option<WarmUp>| r.log.iter().filter(|l| l.warm_up == w).count();
+                println!(
+                    "  phases: barrier {} al {} kkt {}",
+                    count(Some(WarmUp::Barrier)),
+                    count(Some(WarmUp::AugmentedLagrangian)),
+                    count(None)
+                );
+            }
+            (
+                r.cost,
+                r.max_violation,
+                r.iterations + r.discarded_iterations,
+                r.status,
+                ms,
+            )
+        }};
+    }
+    Ok(if bp.model == "unicycle" {
+        run!(bp.unicycle()?)
+    } else {
+        run!(bp.car_or_point()?)
+    })
+}

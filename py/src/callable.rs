@@ -130,7 +130,13 @@ where
                 return;
             }
             let r = Python::attach(|py| -> PyResult<()> {
-                let res = jac.call1(py, (vec_to_numpy(py, x.as_slice().to_vec()), vec_to_numpy(py, u.as_slice().to_vec())))?;
+                let res = jac.call1(
+                    py,
+                    (
+                        vec_to_numpy(py, x.as_slice().to_vec()),
+                        vec_to_numpy(py, u.as_slice().to_vec()),
+                    ),
+                )?;
                 let (ja, jb): (Bound<'_, PyAny>, Bound<'_, PyAny>) = res.bind(py).extract()?;
                 let (ja, jb) = (to_arr(&ja, "fx")?, to_arr(&jb, "fu")?);
                 ja.expect_shape("fx", &[nx, nx])?;
@@ -355,7 +361,11 @@ pub fn dynamics_from_callable(
         nu,
     };
     let base: Dynamics = with_dims!(nx, nu, wrap_dynamics(&model))?;
-    Ok(Py::new(py, PyClassInitializer::from(base).add_subclass(PyCallableDynamics { model }))?.into_any())
+    Ok(Py::new(
+        py,
+        PyClassInitializer::from(base).add_subclass(PyCallableDynamics { model }),
+    )?
+    .into_any())
 }
 
 /// `Cost.from_callable`.
@@ -371,7 +381,11 @@ pub fn cost_from_callable(py: Python<'_>, l: &Bound<'_, PyAny>, nx: i64, nu: Opt
     let base = Cost {
         spec: Arc::new(CostSpec::Callable(model.clone())),
     };
-    Ok(Py::new(py, PyClassInitializer::from(base).add_subclass(PyCallableCost { model }))?.into_any())
+    Ok(Py::new(
+        py,
+        PyClassInitializer::from(base).add_subclass(PyCallableCost { model }),
+    )?
+    .into_any())
 }
 
 /// Dynamics of a plain Python callable (`Dynamics.from_callable`): the slow path.
@@ -390,14 +404,20 @@ impl PyCallableDynamics {
 
     /// Pickles as `Dynamics.from_callable(f, nx, nu, jacobians)`: needs picklable functions.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
-        let ctor = py.import("ddpkit._ddpkit")?.getattr("Dynamics")?.getattr("from_callable")?;
+        let ctor = py
+            .import("ddpkit._ddpkit")?
+            .getattr("Dynamics")?
+            .getattr("from_callable")?;
         let jac = self.model.inner.jac.as_ref().map(|j| j.clone_ref(py));
         let args = (self.model.inner.f.clone_ref(py), self.model.nx, self.model.nu, jac).into_pyobject(py)?;
         Ok((ctor, args))
     }
 
     fn __repr__(&self) -> String {
-        format!("CallableDynamics({}, nx={}, nu={})", self.model.inner.name, self.model.nx, self.model.nu)
+        format!(
+            "CallableDynamics({}, nx={}, nu={})",
+            self.model.inner.name, self.model.nx, self.model.nu
+        )
     }
 }
 
@@ -423,7 +443,10 @@ impl PyCallableCost {
     }
 
     fn __repr__(&self) -> String {
-        format!("CallableCost({}, nx={}, nu={:?})", self.model.inner.name, self.model.nx, self.model.nu)
+        format!(
+            "CallableCost({}, nx={}, nu={:?})",
+            self.model.inner.name, self.model.nx, self.model.nu
+        )
     }
 }
 

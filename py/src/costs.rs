@@ -240,7 +240,11 @@ impl CostSpec {
                     check_pair(field, c.dims(), s.nx(), s.nu())?;
                     Arc::new(c.clone())
                 }
-                _ => return Err(crate::convert::internal("a running tape cost that is not a cost".into())),
+                _ => {
+                    return Err(crate::convert::internal(
+                        "a running tape cost that is not a cost".into(),
+                    ))
+                }
             },
             CostSpec::Callable(c) => {
                 check_pair(field, c.dims(), s.nx(), s.nu())?;
@@ -282,7 +286,11 @@ impl CostSpec {
                     check_pair(field, (c.nx(), 0), nx.value(), 0)?;
                     Arc::new(c.clone())
                 }
-                _ => return Err(crate::convert::internal("a terminal tape cost that is not terminal".into())),
+                _ => {
+                    return Err(crate::convert::internal(
+                        "a terminal tape cost that is not terminal".into(),
+                    ))
+                }
             },
             CostSpec::Callable(c) if c.terminal() => {
                 check_pair(field, (c.dims().0, 0), nx.value(), 0)?;
@@ -370,8 +378,18 @@ impl StateDim for Dyn {
 /// Checks a user model's `(nx, nu)` against the problem's, naming `field`.
 pub fn check_pair(field: &str, have: (usize, usize), nx: usize, nu: usize) -> CoreResult<()> {
     if have != (nx, nu) {
-        let show = |(a, b): (usize, usize)| if b == 0 { format!("nx = {a}") } else { format!("(nx, nu) = ({a}, {b})") };
-        return Err(shape(field, show(have), format!("{} (the problem's sizes)", show((nx, nu)))));
+        let show = |(a, b): (usize, usize)| {
+            if b == 0 {
+                format!("nx = {a}")
+            } else {
+                format!("(nx, nu) = ({a}, {b})")
+            }
+        };
+        return Err(shape(
+            field,
+            show(have),
+            format!("{} (the problem's sizes)", show((nx, nu))),
+        ));
     }
     Ok(())
 }

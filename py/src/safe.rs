@@ -128,7 +128,11 @@ impl Spec {
                         .map_err(|e| crate::errors::CoreError(e).context(field))?;
                     Arc::new(c.clone())
                 }
-                _ => return Err(crate::convert::internal("a tape constraint that is not a constraint".into())),
+                _ => {
+                    return Err(crate::convert::internal(
+                        "a tape constraint that is not a constraint".into(),
+                    ))
+                }
             },
         })
     }

@@ -89,18 +89,29 @@ pub fn to_python(py: Python<'_>, model: TapeModel) -> PyResult<Py<PyAny>> {
         TapeModel::Dynamics(d) => {
             let (nx, nu) = d.dims();
             let base: Dynamics = with_dims!(nx, nu, wrap_dynamics(d))?;
-            Py::new(py, PyClassInitializer::from(base).add_subclass(TapeDynamics { model: model.clone() }))?.into_any()
+            Py::new(
+                py,
+                PyClassInitializer::from(base).add_subclass(TapeDynamics { model: model.clone() }),
+            )?
+            .into_any()
         }
         TapeModel::Cost(_) | TapeModel::Terminal(_) => {
             let base = Cost {
                 spec: Arc::new(CostSpec::Tape(model.clone())),
             };
-            Py::new(py, PyClassInitializer::from(base).add_subclass(TapeCost { model: model.clone() }))?.into_any()
+            Py::new(
+                py,
+                PyClassInitializer::from(base).add_subclass(TapeCost { model: model.clone() }),
+            )?
+            .into_any()
         }
         TapeModel::Constraint(_) => {
             let base = crate::safe::tape_constraint(model.clone());
-            Py::new(py, PyClassInitializer::from(base).add_subclass(TapeConstraint { model: model.clone() }))?
-                .into_any()
+            Py::new(
+                py,
+                PyClassInitializer::from(base).add_subclass(TapeConstraint { model: model.clone() }),
+            )?
+            .into_any()
         }
     })
 }
@@ -120,7 +131,12 @@ pub fn dynamics_from_function(
 }
 
 /// `Dynamics.from_casadi`.
-pub fn dynamics_from_casadi(py: Python<'_>, f: &Bound<'_, PyAny>, dt: Option<f64>, integrator: &str) -> PyResult<Py<PyAny>> {
+pub fn dynamics_from_casadi(
+    py: Python<'_>,
+    f: &Bound<'_, PyAny>,
+    dt: Option<f64>,
+    integrator: &str,
+) -> PyResult<Py<PyAny>> {
     let (doc, _, _) = casadi(py, f, "dynamics")?;
     to_python(py, integrate(load(&doc)?, dt, integrator)?)
 }
@@ -266,7 +282,11 @@ tape_methods!(TapeDynamics, {
         let s = ddp_core::Dims::<Dyn, Dyn>::new("dynamics", nx, nu).map_err(CoreError)?;
         let (mut a, mut b, mut c) = (s.xx_zeros(), s.ux_zeros(), s.uu_zeros());
         ddp_core::Dynamics::<Dyn, Dyn>::add_second_order(d, &x, &u, &lam, &mut a, &mut b, &mut c);
-        Ok((matrix_to_numpy(py, &a)?, matrix_to_numpy(py, &b)?, matrix_to_numpy(py, &c)?))
+        Ok((
+            matrix_to_numpy(py, &a)?,
+            matrix_to_numpy(py, &b)?,
+            matrix_to_numpy(py, &c)?,
+        ))
     }
 });
 tape_methods!(TapeCost, {
@@ -279,7 +299,14 @@ tape_methods!(TapeCost, {
         py: Python<'py>,
         x: &Bound<'py, PyAny>,
         u: Option<&Bound<'py, PyAny>>,
-    ) -> PyResult<(f64, Bound<'py, PyAny>, Option<Bound<'py, PyAny>>, Bound<'py, PyAny>, Option<Bound<'py, PyAny>>, Option<Bound<'py, PyAny>>)> {
+    ) -> PyResult<(
+        f64,
+        Bound<'py, PyAny>,
+        Option<Bound<'py, PyAny>>,
+        Bound<'py, PyAny>,
+        Option<Bound<'py, PyAny>>,
+        Option<Bound<'py, PyAny>>,
+    )> {
         match &*self.model {
             TapeModel::Cost(c) => {
                 let (nx, nu) = c.dims();
@@ -302,7 +329,14 @@ tape_methods!(TapeCost, {
                 let x = finite_arr(x, "x")?.vector("x", Dyn(c.nx()))?;
                 let mut d = ddp_core::TerminalDerivatives::zeros(Dyn(c.nx()));
                 let v = ddp_core::TerminalCost::<Dyn>::add_derivatives(c, &x, 1.0, &mut d);
-                Ok((v, vector_to_numpy(py, &d.lx), None, matrix_to_numpy(py, &d.lxx)?, None, None))
+                Ok((
+                    v,
+                    vector_to_numpy(py, &d.lx),
+                    None,
+                    matrix_to_numpy(py, &d.lxx)?,
+                    None,
+                    None,
+                ))
             }
             _ => Err(crate::convert::internal("not a cost".into()).into()),
         }

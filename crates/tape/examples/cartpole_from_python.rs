@@ -18,12 +18,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let TapeModel::Dynamics(model) = TapeModel::load(&path)? else {
         return Err(format!("{path} does not hold dynamics").into());
     };
-    println!("loaded {path}: {} nodes, (nx, nu) = {:?}", model.tape().nodes().len(), model.dims());
+    println!(
+        "loaded {path}: {} nodes, (nx, nu) = {:?}",
+        model.tape().nodes().len(),
+        model.dims()
+    );
     let goal = Vector::<4>::new(0.0, std::f64::consts::PI, 0.0, 0.0);
     let problem = Problem::<U4, U1>::new(
         Vector::<4>::zeros(),
         Arc::new(model),
-        Arc::new(QuadraticCost::diagonal(&[0.1, 0.0, 0.1, 0.1], &[0.1], Vector::zeros(), Vector::zeros())?),
+        Arc::new(QuadraticCost::diagonal(
+            &[0.1, 0.0, 0.1, 0.1],
+            &[0.1],
+            Vector::zeros(),
+            Vector::zeros(),
+        )?),
         Arc::new(QuadraticTerminal::diagonal(&[100.0; 4], goal)?),
         80,
     )?;

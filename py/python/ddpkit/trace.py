@@ -204,6 +204,11 @@ _UFUNCS: Dict[str, Callable[..., Any]] = {
 def _plain(v: Any) -> Any:
     if isinstance(v, np.ndarray):
         return v.view(np.ndarray) if v.dtype == object else v.astype(object)
+    if isinstance(v, Sym):
+        # A 0-d object array, so that numpy does not hand the loop back to Sym.__array_ufunc__.
+        a = np.empty((), dtype=object)
+        a[()] = v
+        return a
     return v
 
 
@@ -230,8 +235,8 @@ def _apply_ufunc(ufunc: np.ufunc, method: str, *inputs: Any, **kwargs: Any) -> A
             + ", ".join(sorted(_UFUNCS) + ["matmul"])
             + ")"
         )
-    if method == "__call__" and not any(isinstance(v, np.ndarray) for v in plain):
-        return f(*plain)
+    if method == "__call__" and not any(isinstance(v, np.ndarray) for v in inputs):
+        return f(*inputs)
     loop = np.frompyfunc(f, ufunc.nin, 1)
     try:
         fn = getattr(loop, method)
@@ -321,6 +326,9 @@ class Sym:
     def __array_ufunc__(self, ufunc: np.ufunc, method: str, *inputs: Any, **kwargs: Any) -> Any:
         return _apply_ufunc(ufunc, method, *inputs, **kwargs)
 
+    def __array_function__(self, func: Any, types: Any, args: Any, kwargs: Any) -> Any:
+        return _apply_function(func, args, kwargs)
+
     # Methods numpy's object loops call by name.
     def sin(self) -> "Sym":
         return _unary("sin")(self)
@@ -365,6 +373,24 @@ class Sym:
         return self
 
 
+def _apply_function(func: Any, args: Any, kwargs: Any) -> Any:
+    """numpy functions (``np.where``, ``np.stack``, ``np.sum``, ...) on symbolic arguments."""
+    if func is np.where and len(args) + len(kwargs) == 3:
+        c, a, b = (list(args) + list(kwargs.values()))[:3]
+        return _wrap(np.frompyfunc(_where, 3, 1)(_plain(c), _plain(a), _plain(b)))
+
+    def down(v: Any) -> Any:
+        if isinstance(v, SymArray):
+            return v.view(np.ndarray)
+        if isinstance(v, Sym):
+            return _plain(v)
+        if isinstance(v, (list, tuple)):
+            return type(v)(down(i) for i in v)
+        return v
+
+    return _wrap(func(*down(args), **{k: down(v) for k, v in kwargs.items()}))
+
+
 class SymArray(np.ndarray):
     """A numpy object array of :class:`Sym`: numpy functions applied to it are traced."""
 
@@ -372,18 +398,7 @@ class SymArray(np.ndarray):
         return _apply_ufunc(ufunc, method, *inputs, **kwargs)
 
     def __array_function__(self, func: Any, types: Any, args: Any, kwargs: Any) -> Any:
-        if func is np.where and len(args) + len(kwargs) == 3:
-            c, a, b = (list(args) + list(kwargs.values()))[:3]
-            return _wrap(np.frompyfunc(_where, 3, 1)(_plain(c), _plain(a), _plain(b)))
-
-        def down(v: Any) -> Any:
-            if isinstance(v, SymArray):
-                return v.view(np.ndarray)
-            if isinstance(v, (list, tuple)):
-                return type(v)(down(i) for i in v)
-            return v
-
-        return _wrap(func(*down(args), **{k: down(v) for k, v in kwargs.items()}))
+        return _apply_function(func, args, kwargs)
 
 
 def _symbols(g: _Graph, start: int, n: int) -> SymArray:

@@ -36,8 +36,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Arc::new(QuadraticTerminal::diagonal(&[100.0; 4], goal)?),
         80,
     )?;
-    let mut solver = Solver::new(&problem, Settings::default())?;
-    let report = solver.solve(&problem)?;
+    let mut solver = Solver::new(
+        &problem,
+        Settings {
+            method: ddp_core::Method::Ddp,
+            max_iterations: 500,
+            ..Settings::default()
+        },
+    )?;
+    let report = solver.solve(&problem)?.clone();
     println!(
         "{:?} after {} iterations, cost {:.6}, final angle {:.4} rad",
         report.status,

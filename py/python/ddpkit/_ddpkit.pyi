@@ -42,6 +42,8 @@ __all__ = [
     "ArmBase",
     "BEZIER_DEFAULT_ACCURACY",
     "Bezier",
+    "CallableCost",
+    "CallableDynamics",
     "Car",
     "Circle",
     "CirclePenalty",
@@ -81,6 +83,9 @@ __all__ = [
     "SplineOptimizeResult",
     "StateBox",
     "SubgoalModel",
+    "TapeConstraint",
+    "TapeCost",
+    "TapeDynamics",
     "TerminalSum",
     "Tightening",
     "Trajectory",
@@ -94,6 +99,8 @@ __all__ = [
     "idnp_experiment",
     "idnp_run",
     "idnp_scene",
+    "load_model",
+    "model_from_json",
     "optimize_spline",
     "sim_run_scenario",
     "sim_safe_turtlebot",
@@ -1044,7 +1051,7 @@ class TapeDynamics(Dynamics):
     def kind(self) -> str:
         """``"dynamics"``, ``"cost"``, ``"terminal_cost"`` or ``"constraint"``."""
     def __reduce__(self) -> tuple[Any, tuple[str]]: ...
-    def __eq__(self, other: object) -> bool: ...
+    def __eq__(self, value: object, /) -> bool: ...
 
     def second_order(self, x: _ArrayLike, u: _ArrayLike, lam: _ArrayLike) -> tuple[_F64Array, _F64Array, _F64Array]:
         """``sum_i lam_i d^2 f_i`` at ``(x, u)`` as ``(h_xx, h_ux, h_uu)``."""
@@ -1065,7 +1072,7 @@ class TapeCost(Cost):
     def kind(self) -> str:
         """``"dynamics"``, ``"cost"``, ``"terminal_cost"`` or ``"constraint"``."""
     def __reduce__(self) -> tuple[Any, tuple[str]]: ...
-    def __eq__(self, other: object) -> bool: ...
+    def __eq__(self, value: object, /) -> bool: ...
 
     def derivatives(
         self, x: _ArrayLike, u: Optional[_ArrayLike] = None
@@ -1088,7 +1095,7 @@ class TapeConstraint(Constraint):
     def kind(self) -> str:
         """``"dynamics"``, ``"cost"``, ``"terminal_cost"`` or ``"constraint"``."""
     def __reduce__(self) -> tuple[Any, tuple[str]]: ...
-    def __eq__(self, other: object) -> bool: ...
+    def __eq__(self, value: object, /) -> bool: ...
 
     def jacobians(self, x: _ArrayLike, u: Optional[_ArrayLike] = None) -> tuple[_F64Array, _F64Array, _F64Array]:
         """``(g, g_x, g_u)`` at ``(x, u)``: shapes ``(m,)``, ``(m, nx)``, ``(m, nu)``."""

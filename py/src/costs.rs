@@ -167,6 +167,11 @@ pub enum CostSpec {
         /// `w`
         weight: f64,
     },
+    /// A tape: a traced function, a CasADi function or a loaded file (a running cost
+    /// `l(x, u)` or a terminal cost `l(x)`).
+    Tape(Arc<ddp_tape::TapeModel>),
+    /// A plain Python callable (the slow path, finite differences).
+    Callable(crate::callable::CallableCost),
     /// `sum_i w_i l_i` of running terms (`terminal == false`) or terminal terms.
     Sum {
         /// `(w_i, l_i)`
@@ -186,6 +191,8 @@ impl CostSpec {
             CostSpec::SmoothDistance { .. } => "SmoothDistance",
             CostSpec::ObstacleHinge { .. } => "ObstacleHinge",
             CostSpec::CirclePenalty { .. } => "CirclePenalty",
+            CostSpec::Tape(_) => "TapeCost",
+            CostSpec::Callable(_) => "CallableCost",
             CostSpec::Sum { terminal: false, .. } => "CostSum",
             CostSpec::Sum { terminal: true, .. } => "TerminalSum",
         }
@@ -195,6 +202,8 @@ impl CostSpec {
     pub fn state_only(&self) -> bool {
         match self {
             CostSpec::Quadratic { .. } | CostSpec::ControlSquared { .. } => false,
+            CostSpec::Tape(m) => matches!(**m, ddp_tape::TapeModel::Terminal(_)),
+            CostSpec::Callable(c) => c.terminal(),
             CostSpec::Sum { terminal, .. } => *terminal,
             _ => true,
         }
@@ -226,6 +235,21 @@ impl CostSpec {
             CostSpec::ControlSquared { weight } => {
                 Arc::new(CoreControlSquared::new(*weight).map_err(|e| ctx(e.into()))?)
             }
+            CostSpec::Tape(m) => match &**m {
+                ddp_tape::TapeModel::Cost(c) => {
+                    check_pair(field, c.dims(), s.nx(), s.nu())?;
+                    Arc::new(c.clone())
+                }
+                _ => {
+                    return Err(crate::convert::internal(
+                        "a running tape cost that is not a cost".into(),
+                    ))
+                }
+            },
+            CostSpec::Callable(c) => {
+                check_pair(field, c.dims(), s.nx(), s.nu())?;
+                Arc::new(c.clone())
+            }
             CostSpec::Sum { terms, .. } => {
                 let mut sum = CoreCostSum::<NX, NU>::new();
                 for (i, (w, t)) in terms.iter().enumerate() {
@@ -256,6 +280,21 @@ impl CostSpec {
             ),
             CostSpec::SmoothDistance { .. } | CostSpec::ObstacleHinge { .. } | CostSpec::CirclePenalty { .. } => {
                 NX::position_term(self, field)?
+            }
+            CostSpec::Tape(m) => match &**m {
+                ddp_tape::TapeModel::Terminal(c) => {
+                    check_pair(field, (c.nx(), 0), nx.value(), 0)?;
+                    Arc::new(c.clone())
+                }
+                _ => {
+                    return Err(crate::convert::internal(
+                        "a terminal tape cost that is not terminal".into(),
+                    ))
+                }
+            },
+            CostSpec::Callable(c) if c.terminal() => {
+                check_pair(field, (c.dims().0, 0), nx.value(), 0)?;
+                Arc::new(c.clone())
             }
             CostSpec::Sum { terms, terminal: true } => {
                 let mut sum = CoreTerminalSum::<NX>::new();
@@ -336,6 +375,25 @@ impl StateDim for Dyn {
     }
 }
 
+/// Checks a user model's `(nx, nu)` against the problem's, naming `field`.
+pub fn check_pair(field: &str, have: (usize, usize), nx: usize, nu: usize) -> CoreResult<()> {
+    if have != (nx, nu) {
+        let show = |(a, b): (usize, usize)| {
+            if b == 0 {
+                format!("nx = {a}")
+            } else {
+                format!("(nx, nu) = ({a}, {b})")
+            }
+        };
+        return Err(shape(
+            field,
+            show(have),
+            format!("{} (the problem's sizes)", show((nx, nu))),
+        ));
+    }
+    Ok(())
+}
+
 fn opt_vector<N: Dim>(v: &Option<Vec<f64>>, field: &str, n: N) -> CoreResult<VectorN<N>>
 where
     DefaultAllocator: Alloc<N, N>,
@@ -394,13 +452,17 @@ impl Cost {
                     return Err(shape("u", shape_str(&u.shape), "(nu,)").into());
                 }
                 let nu = u.shape[0];
-                Ok(with_dims!(nx, nu, running_value(&self.spec, &x, &u))?)
+                let r = with_dims!(nx, nu, running_value(&self.spec, &x, &u));
+                crate::callable::raise_pending()?;
+                Ok(r?)
             }
             None => {
                 if !self.spec.state_only() {
                     return Err(invalid("u", format!("{} depends on the control: pass u", self.spec.kind())).into());
                 }
-                Ok(with_dims!(nx, nu_for(nx), terminal_value(&self.spec, &x))?)
+                let r = with_dims!(nx, nu_for(nx), terminal_value(&self.spec, &x));
+                crate::callable::raise_pending()?;
+                Ok(r?)
             }
         }
     }
@@ -409,6 +471,30 @@ impl Cost {
     #[getter]
     fn state_only(&self) -> bool {
         self.spec.state_only()
+    }
+
+    /// A cost traced from a Python function: running `l(x, u)` with `nu` given, terminal
+    /// `l(x)` when `nu` is None. See `Dynamics.from_function` for what the function may use.
+    #[staticmethod]
+    #[pyo3(signature = (l, nx, nu = None))]
+    fn from_function(py: Python<'_>, l: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
+        crate::tape::cost_from_function(py, l, nx, nu)
+    }
+
+    /// A cost read from a CasADi SX function: `l(x, u)` (running) or `l(x)` (terminal), one
+    /// scalar output.
+    #[staticmethod]
+    fn from_casadi(py: Python<'_>, l: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
+        crate::tape::cost_from_casadi(py, l)
+    }
+
+    /// A cost from a plain Python callable `l(x, u) -> float` (or `l(x)` when `nu` is None):
+    /// the slow path for what cannot be traced. Gradients and Hessians by central finite
+    /// differences; an exception raised by `l` during a solve is raised by the solve.
+    #[staticmethod]
+    #[pyo3(signature = (l, nx, nu = None))]
+    fn from_callable(py: Python<'_>, l: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
+        crate::callable::cost_from_callable(py, l, nx, nu)
     }
 }
 

@@ -13,6 +13,8 @@
 //! | [`problem`] | `Problem` |
 //! | [`solver`] | `Solver`, `Solution`, `default_settings` |
 //! | [`safe`] | `Constraint` and the constraints, `Tightening`, `SafeCddpSolver`, `SafeSolution`, `Mpc`, `Episode` (Safe-CDDP) |
+//! | [`tape`] | `TapeDynamics`, `TapeCost`, `TapeConstraint`, `load_model`, `model_from_json`: models traced from Python or imported from CasADi |
+//! | [`callable`] | `CallableDynamics`, `CallableCost`: plain Python callables (the slow path) |
 //! | [`idnp`] | `IdnpRun`, `IdnpExperiment`, `idnp_run`, `idnp_experiment`, `idnp_scene`, `idnp_configuration` (public as `ddpkit.idnp`) |
 //! | [`subgoal`] | `subgoal_generate_dataset`, `subgoal_sample`: the DDPEN sub-goal dataset (public as `ddpkit.subgoal`) |
 //! | [`subgoal_model`] | `SubgoalModel`: the DDPEN sub-goal network in Rust (public as `ddpkit.subgoal.SubgoalModel`) |
@@ -22,6 +24,7 @@
 #[macro_use]
 pub mod dims;
 pub mod bezier;
+pub mod callable;
 pub mod convert;
 pub mod costs;
 pub mod errors;
@@ -33,6 +36,7 @@ pub mod sim;
 pub mod solver;
 pub mod subgoal;
 pub mod subgoal_model;
+pub mod tape;
 
 use pyo3::prelude::*;
 
@@ -69,6 +73,8 @@ fn _ddpkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<solver::Solution>()?;
     m.add_function(wrap_pyfunction!(solver::default_settings, m)?)?;
     m.add_function(wrap_pyfunction!(supported_dimensions, m)?)?;
+    tape::register(m)?;
+    callable::register(m)?;
     bezier::register(m)?;
     safe::register(m)?;
     sim::register(m)?;

@@ -22,7 +22,7 @@ pub struct Dynamics {
 
 impl Dynamics {
     /// Wraps a model; its sizes are those it reports (a compiled pair for the built-in models).
-    fn of<NX: Dim, NU: Dim>(model: impl ddp_core::Dynamics<NX, NU> + 'static) -> CoreResult<Self>
+    pub(crate) fn of<NX: Dim, NU: Dim>(model: impl ddp_core::Dynamics<NX, NU> + 'static) -> CoreResult<Self>
     where
         DefaultAllocator: Alloc<NX, NU>,
         Dispatch: Pair<NX, NU>,
@@ -98,7 +98,49 @@ impl Dynamics {
     /// The next state `f(x, u)`, shape `(nx,)`.
     fn step<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>, u: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let (x, u) = (finite_arr(x, "x")?, finite_arr(u, "u")?);
-        with_dims!(self.nx, self.nu, step_impl(py, self, &x, &u))
+        let r = with_dims!(self.nx, self.nu, step_impl(py, self, &x, &u));
+        crate::callable::raise_pending()?;
+        r
+    }
+
+    /// Dynamics traced from a Python function `f(x, u)`: the discrete step when `dt` is None,
+    /// else the continuous `xdot = f(x, u)` integrated over `dt` by `integrator` (`"rk4"` or
+    /// `"euler"`). `f` is called once with symbolic arrays; numpy-style math is recorded and
+    /// evaluated in Rust with exact first and second derivatives.
+    #[staticmethod]
+    #[pyo3(signature = (f, nx, nu, dt = None, integrator = "rk4"))]
+    fn from_function(
+        py: Python<'_>,
+        f: &Bound<'_, PyAny>,
+        nx: i64,
+        nu: i64,
+        dt: Option<f64>,
+        integrator: &str,
+    ) -> PyResult<Py<PyAny>> {
+        crate::tape::dynamics_from_function(py, f, nx, nu, dt, integrator)
+    }
+
+    /// Dynamics read from a CasADi SX function `F(x, u)` (discrete, or continuous with `dt`).
+    #[staticmethod]
+    #[pyo3(signature = (F, dt = None, integrator = "rk4"))]
+    #[allow(non_snake_case)]
+    fn from_casadi(py: Python<'_>, F: &Bound<'_, PyAny>, dt: Option<f64>, integrator: &str) -> PyResult<Py<PyAny>> {
+        crate::tape::dynamics_from_casadi(py, F, dt, integrator)
+    }
+
+    /// Dynamics from a plain Python callable `f(x, u) -> x_next` (the slow path, for what cannot
+    /// be traced). `jacobians(x, u) -> (fx, fu)` is optional: central finite differences
+    /// otherwise. An exception raised by `f` during a solve is raised by the solve.
+    #[staticmethod]
+    #[pyo3(signature = (f, nx, nu, jacobians = None))]
+    fn from_callable(
+        py: Python<'_>,
+        f: &Bound<'_, PyAny>,
+        nx: i64,
+        nu: i64,
+        jacobians: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Py<PyAny>> {
+        crate::callable::dynamics_from_callable(py, f, nx, nu, jacobians)
     }
 
     /// The Jacobians `(fx, fu)` of `step` at `(x, u)`, shapes `(nx, nx)` and `(nx, nu)`.
@@ -109,7 +151,9 @@ impl Dynamics {
         u: &Bound<'py, PyAny>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let (x, u) = (finite_arr(x, "x")?, finite_arr(u, "u")?);
-        with_dims!(self.nx, self.nu, jacobians_impl(py, self, &x, &u))
+        let r = with_dims!(self.nx, self.nu, jacobians_impl(py, self, &x, &u));
+        crate::callable::raise_pending()?;
+        r
     }
 }
 

@@ -345,7 +345,9 @@ impl Problem {
     /// Simulates the controls `us` (shape `(N, nu)`) from `x0`; returns `xs`, shape `(N+1, nx)`.
     fn rollout<'py>(&self, py: Python<'py>, us: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let us = finite_arr(us, "us")?;
-        Self::read(&self.inner, |p| with_dims!(self.nx, self.nu, rollout_impl(py, p, &us)))
+        let r = Self::read(&self.inner, |p| with_dims!(self.nx, self.nu, rollout_impl(py, p, &us)));
+        crate::callable::raise_pending()?;
+        r
     }
 
     /// The objective `sum_k l_k(x_k, u_k) + l_N(x_N)` of a trajectory (`xs` `(N+1, nx)`, `us`

@@ -64,6 +64,7 @@ enum Spec {
         lower: Vec<f64>,
         upper: Vec<f64>,
     },
+    Tape(Arc<ddp_tape::TapeModel>),
 }
 
 fn bound_vector<N: Dim>(v: &[f64], field: &str, n: N) -> CoreResult<VectorN<N>>
@@ -122,6 +123,18 @@ impl Spec {
                 bound_vector(lower, &format!("{field}.lower"), d.nu)?,
                 bound_vector(upper, &format!("{field}.upper"), d.nu)?,
             )?),
+            Spec::Tape(m) => match &**m {
+                ddp_tape::TapeModel::Constraint(c) => {
+                    CoreConstraint::<NX, NU>::check_sizes(c, d.nx(), d.nu())
+                        .map_err(|e| crate::errors::CoreError(e).context(field))?;
+                    Arc::new(c.clone())
+                }
+                _ => {
+                    return Err(crate::convert::internal(
+                        "a tape constraint that is not a constraint".into(),
+                    ))
+                }
+            },
         })
     }
 }
@@ -179,6 +192,28 @@ pub struct Constraint {
 impl Constraint {
     fn __repr__(&self) -> String {
         format!("{:?}", self.spec)
+    }
+
+    /// Constraints `g(x, u) <= 0` traced from a Python function returning one value or a 1-D
+    /// array of rows (`g(x)` when `nu` is None). Rows that do not depend on `u` are state-only
+    /// (imposed on `x_1 .. x_N`, like the obstacles).
+    #[staticmethod]
+    #[pyo3(signature = (g, nx, nu = None))]
+    fn from_function(py: Python<'_>, g: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
+        crate::tape::constraint_from_function(py, g, nx, nu)
+    }
+
+    /// Constraints read from a CasADi SX function `g(x, u)` or `g(x)` (first output, a vector).
+    #[staticmethod]
+    fn from_casadi(py: Python<'_>, g: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
+        crate::tape::constraint_from_casadi(py, g)
+    }
+}
+
+/// The base object of a tape constraint.
+pub(crate) fn tape_constraint(model: Arc<ddp_tape::TapeModel>) -> Constraint {
+    Constraint {
+        spec: Arc::new(Spec::Tape(model)),
     }
 }
 
@@ -886,7 +921,9 @@ impl SafeCddpSolver {
             Problem::read(shared, |p| {
                 with_dims!(nx, nu, solve_safe(inner, p, us0.as_ref(), warm_start))
             })
-        })?;
+        });
+        crate::callable::raise_pending()?;
+        let out = out?;
         SafeSolution::from_out(py, out, nx, nu)
     }
 
@@ -1206,7 +1243,9 @@ impl Mpc {
     fn run_episode(&mut self, py: Python<'_>, seed: u64) -> PyResult<Episode> {
         let (nx, nu) = (self.nx, self.nu);
         let inner = &mut self.inner;
-        let e = py.detach(|| -> CoreResult<EpisodeOut> { with_dims!(nx, nu, run_mpc(inner, seed)) })?;
+        let e = py.detach(|| -> CoreResult<EpisodeOut> { with_dims!(nx, nu, run_mpc(inner, seed)) });
+        crate::callable::raise_pending()?;
+        let e = e?;
         Ok(Episode {
             success: e.success,
             steps: e.steps,

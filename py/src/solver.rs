@@ -373,7 +373,10 @@ impl Solver {
             Problem::read(shared, |p| {
                 with_dims!(nx, nu, solve_impl(inner, p, us0.as_ref(), warm_start))
             })
-        })?;
+        });
+        // An exception raised by a Python callable model is the solve's error.
+        crate::callable::raise_pending()?;
+        let out = out?;
         let n = self.horizon;
         Ok(Solution {
             xs: rows_to_numpy(py, n + 1, nx, out.xs)?.unbind(),

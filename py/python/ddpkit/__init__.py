@@ -39,12 +39,20 @@ constraints.
 :mod:`ddpkit.subgoal` has the DDPEN sub-goal dataset (generation in Rust, memory-mapped shards)
 and the sub-goal network running in Rust (``SubgoalModel``).
 
+Your own robot: :meth:`Dynamics.from_function`, :meth:`Cost.from_function` and
+:meth:`Constraint.from_function` trace numpy-style Python functions once into tapes that Rust
+evaluates with exact first and second derivatives (:mod:`ddpkit.trace`); ``from_casadi`` reads
+CasADi SX functions into the same tapes; ``from_callable`` takes plain Python callables (the slow
+path, finite differences). Tape models ``save``, :func:`load_model` and pickle.
+
 :mod:`ddpkit.sim` runs sim2d scenarios (DDP planners in the loop, trajectory and metrics as
 arrays) and the simulated Safe-CDDP Turtlebot experiment (Alcan and Kyrki (2022), §IV-C).
 """
 
 from ddpkit._ddpkit import (
     ArmBase,
+    CallableCost,
+    CallableDynamics,
     Car,
     Circle,
     CirclePenalty,
@@ -76,20 +84,28 @@ from ddpkit._ddpkit import (
     Solution,
     Solver,
     StateBox,
+    TapeConstraint,
+    TapeCost,
+    TapeDynamics,
     TerminalSum,
     Tightening,
     Unicycle,
     __version__,
     default_settings,
+    load_model,
+    model_from_json,
     supported_dimensions,
 )
 from ddpkit import bezier
 from ddpkit import idnp
 from ddpkit import sim
 from ddpkit import subgoal
+from ddpkit import trace
 
 __all__ = [
     "ArmBase",
+    "CallableCost",
+    "CallableDynamics",
     "Car",
     "Circle",
     "CirclePenalty",
@@ -121,6 +137,9 @@ __all__ = [
     "Solution",
     "Solver",
     "StateBox",
+    "TapeConstraint",
+    "TapeCost",
+    "TapeDynamics",
     "TerminalSum",
     "Tightening",
     "Unicycle",
@@ -129,6 +148,9 @@ __all__ = [
     "idnp",
     "sim",
     "subgoal",
+    "trace",
     "default_settings",
+    "load_model",
+    "model_from_json",
     "supported_dimensions",
 ]

@@ -42,6 +42,8 @@ __all__ = [
     "ArmBase",
     "BEZIER_DEFAULT_ACCURACY",
     "Bezier",
+    "CallableCost",
+    "CallableDynamics",
     "Car",
     "Circle",
     "CirclePenalty",
@@ -81,6 +83,9 @@ __all__ = [
     "SplineOptimizeResult",
     "StateBox",
     "SubgoalModel",
+    "TapeConstraint",
+    "TapeCost",
+    "TapeDynamics",
     "TerminalSum",
     "Tightening",
     "Trajectory",
@@ -94,6 +99,8 @@ __all__ = [
     "idnp_experiment",
     "idnp_run",
     "idnp_scene",
+    "load_model",
+    "model_from_json",
     "optimize_spline",
     "sim_run_scenario",
     "sim_safe_turtlebot",
@@ -160,6 +167,31 @@ class Dynamics:
     def jacobians(self, x: _ArrayLike, u: _ArrayLike) -> tuple[_F64Array, _F64Array]:
         """The Jacobians ``(fx, fu)`` of :meth:`step` at ``(x, u)``: shapes ``(nx, nx)`` and
         ``(nx, nu)``."""
+    @staticmethod
+    def from_function(f: Any, nx: int, nu: int, dt: Optional[float] = None, integrator: str = "rk4") -> TapeDynamics:
+        """Dynamics traced from a Python function ``f(x, u)``: the discrete step when ``dt`` is
+        None, else the ODE ``xdot = f(x, u)`` integrated over ``dt`` by ``integrator``
+        (``"rk4"`` or ``"euler"``).
+
+        ``f`` is called once with symbolic numpy arrays ``x`` ``(nx,)`` and ``u`` ``(nu,)``;
+        ``+ - * / **``, ``np.sin/cos/tan/exp/log/sqrt/arctan2/tanh/abs/minimum/maximum/where``,
+        indexing, stacking and ``@`` are recorded into a tape that Rust evaluates with exact
+        first and second derivatives (no Python during a solve). Branching in Python on a
+        symbolic value, ``math.*``/``float()``, an unsupported numpy function, a non-finite
+        constant or a result of the wrong shape raise ``InvalidInputError``/``ShapeError``
+        naming ``f``.
+        """
+    @staticmethod
+    def from_casadi(F: Any, dt: Optional[float] = None, integrator: str = "rk4") -> TapeDynamics:
+        """Dynamics read from a CasADi SX ``Function`` ``F(x, u)`` (its instruction list), discrete
+        or (with ``dt``) continuous. An MX function is an error suggesting ``F.expand()``; an
+        unsupported operation is an error naming it."""
+    @staticmethod
+    def from_callable(f: Any, nx: int, nu: int, jacobians: Optional[Any] = None) -> CallableDynamics:
+        """Dynamics from a plain Python callable ``f(x, u) -> x_next``: the slow path for what
+        cannot be traced (every evaluation calls Python). ``jacobians(x, u) -> (fx, fu)`` is
+        optional (central finite differences otherwise). An exception raised by ``f`` during a
+        solve is raised by the solve."""
 
 @final
 class Unicycle(Dynamics):
@@ -318,6 +350,17 @@ class Cost:
     @property
     def state_only(self) -> bool:
         """Whether the term depends on the state only, so it can be a terminal cost."""
+    @staticmethod
+    def from_function(l: Any, nx: int, nu: Optional[int] = None) -> TapeCost:
+        """A cost traced from a Python function: running ``l(x, u)`` with ``nu``, terminal
+        ``l(x)`` without (see :meth:`Dynamics.from_function`). Exact gradients and Hessians."""
+    @staticmethod
+    def from_casadi(l: Any) -> TapeCost:
+        """A cost read from a CasADi SX function ``l(x, u)`` (running) or ``l(x)`` (terminal)."""
+    @staticmethod
+    def from_callable(l: Any, nx: int, nu: Optional[int] = None) -> CallableCost:
+        """A cost from a plain Python callable (the slow path): finite-difference gradients and
+        Hessians; an exception raised by ``l`` during a solve is raised by the solve."""
 
 @final
 class QuadraticCost(Cost):
@@ -980,6 +1023,113 @@ class Constraint:
     (obstacles, state boxes) are imposed on ``x_1 .. x_N`` (the solver moves each to the knot
     whose control can change it); a :class:`ControlBox` constrains ``(x_k, u_k)``.
     """
+
+    @staticmethod
+    def from_function(g: Any, nx: int, nu: Optional[int] = None) -> TapeConstraint:
+        """Constraints ``g(x, u) <= 0`` traced from a Python function returning a number or a 1-D
+        array of rows (``g(x)`` when ``nu`` is None). Rows not depending on ``u`` are state-only
+        (imposed on ``x_1 .. x_N``, as the obstacles)."""
+    @staticmethod
+    def from_casadi(g: Any) -> TapeConstraint:
+        """Constraints read from a CasADi SX function ``g(x, u)`` or ``g(x)``; state-only when no
+        output depends on ``u``."""
+
+@final
+class TapeDynamics(Dynamics):
+    """Dynamics from a tape: traced (:meth:`Dynamics.from_function`), imported from CasADi
+    (:meth:`Dynamics.from_casadi`) or loaded (:func:`load_model`). Pickles to an equal object."""
+
+    def to_json(self) -> str:
+        """The tape's JSON document (the file format of :meth:`save`)."""
+    def save(self, path: Union[str, os.PathLike[str]]) -> None:
+        """Writes the model to ``path`` (JSON, whole or not at all); :func:`load_model` and
+        ``ddp_tape::TapeModel::load`` in Rust read it."""
+    @property
+    def n_nodes(self) -> int:
+        """Number of tape nodes (after sharing common subexpressions and folding constants)."""
+    @property
+    def kind(self) -> str:
+        """``"dynamics"``, ``"cost"``, ``"terminal_cost"`` or ``"constraint"``."""
+    def __reduce__(self) -> tuple[Any, tuple[str]]: ...
+    def __eq__(self, value: object, /) -> bool: ...
+
+    def second_order(self, x: _ArrayLike, u: _ArrayLike, lam: _ArrayLike) -> tuple[_F64Array, _F64Array, _F64Array]:
+        """``sum_i lam_i d^2 f_i`` at ``(x, u)`` as ``(h_xx, h_ux, h_uu)``."""
+
+@final
+class TapeCost(Cost):
+    """A running or terminal cost from a tape (:meth:`Cost.from_function`, :meth:`Cost.from_casadi`)."""
+
+    def to_json(self) -> str:
+        """The tape's JSON document (the file format of :meth:`save`)."""
+    def save(self, path: Union[str, os.PathLike[str]]) -> None:
+        """Writes the model to ``path`` (JSON, whole or not at all); :func:`load_model` and
+        ``ddp_tape::TapeModel::load`` in Rust read it."""
+    @property
+    def n_nodes(self) -> int:
+        """Number of tape nodes (after sharing common subexpressions and folding constants)."""
+    @property
+    def kind(self) -> str:
+        """``"dynamics"``, ``"cost"``, ``"terminal_cost"`` or ``"constraint"``."""
+    def __reduce__(self) -> tuple[Any, tuple[str]]: ...
+    def __eq__(self, value: object, /) -> bool: ...
+
+    def derivatives(
+        self, x: _ArrayLike, u: Optional[_ArrayLike] = None
+    ) -> tuple[float, _F64Array, Optional[_F64Array], _F64Array, Optional[_F64Array], Optional[_F64Array]]:
+        """``(l, l_x, l_u, l_xx, l_uu, l_ux)`` at ``(x, u)``; the ``u`` parts are None for a terminal cost."""
+
+@final
+class TapeConstraint(Constraint):
+    """Constraints from a tape (:meth:`Constraint.from_function`, :meth:`Constraint.from_casadi`)."""
+
+    def to_json(self) -> str:
+        """The tape's JSON document (the file format of :meth:`save`)."""
+    def save(self, path: Union[str, os.PathLike[str]]) -> None:
+        """Writes the model to ``path`` (JSON, whole or not at all); :func:`load_model` and
+        ``ddp_tape::TapeModel::load`` in Rust read it."""
+    @property
+    def n_nodes(self) -> int:
+        """Number of tape nodes (after sharing common subexpressions and folding constants)."""
+    @property
+    def kind(self) -> str:
+        """``"dynamics"``, ``"cost"``, ``"terminal_cost"`` or ``"constraint"``."""
+    def __reduce__(self) -> tuple[Any, tuple[str]]: ...
+    def __eq__(self, value: object, /) -> bool: ...
+
+    def jacobians(self, x: _ArrayLike, u: Optional[_ArrayLike] = None) -> tuple[_F64Array, _F64Array, _F64Array]:
+        """``(g, g_x, g_u)`` at ``(x, u)``: shapes ``(m,)``, ``(m, nx)``, ``(m, nu)``."""
+    @property
+    def dim(self) -> int:
+        """Number of rows."""
+    @property
+    def depends_on_control(self) -> bool:
+        """Whether some row depends on ``u`` (else every row is state-only)."""
+
+@final
+class CallableDynamics(Dynamics):
+    """Dynamics of a plain Python callable (:meth:`Dynamics.from_callable`): the slow path."""
+
+    @property
+    def function(self) -> Any:
+        """The Python function."""
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]: ...
+
+@final
+class CallableCost(Cost):
+    """A cost of a plain Python callable (:meth:`Cost.from_callable`): the slow path."""
+
+    @property
+    def function(self) -> Any:
+        """The Python function."""
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]: ...
+
+def load_model(path: Union[str, os.PathLike[str]]) -> Union[TapeDynamics, TapeCost, TapeConstraint]:
+    """Loads a model saved by ``save`` (or by ``ddp_tape::TapeModel::save`` in Rust); every field
+    is checked and a malformed file raises ``InvalidInputError`` naming the field."""
+
+def model_from_json(text: str) -> Union[TapeDynamics, TapeCost, TapeConstraint]:
+    """The model of a tape JSON document (what ``to_json`` returns); used by pickling."""
 
 @final
 class Circle(Constraint):

@@ -59,6 +59,36 @@ def test_p3_reaches_the_peers_optimum() -> None:
     assert free.cost == pytest.approx(plain.cost, rel=1e-8)
 
 
+@pytest.mark.parametrize("warm_up", ["portfolio", "barrier", "augmented_lagrangian"])
+def test_every_warm_up_reaches_p3s_optimum_also_from_a_start_through_the_obstacles(warm_up: str) -> None:
+    # The unconstrained optimum drives straight through the obstacles: an infeasible start.
+    through = ddpkit.Solver(p3_problem()).solve().us
+    assert violation(ddpkit.SafeCddpSolver(p3_problem(), []).solve(us0=through).xs) > 0.1
+    for us0 in (None, through):
+        solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), warm_up=warm_up)
+        sol = solver.solve(us0=us0)
+        assert sol.converged, (warm_up, sol.table())
+        assert violation(sol.xs) <= 1e-6
+        assert sol.cost <= P3_COST * 1.05
+        if us0 is None:
+            assert sol.cost <= P3_COST * (1 + 1e-6)
+        # Only the portfolio solves twice; the other start's iterations are counted apart.
+        assert (sol.discarded_iterations > 0) == (warm_up == "portfolio" and us0 is None)
+
+
+def test_a_start_trapped_in_an_obstacle_ends_infeasible_with_finite_numbers() -> None:
+    problem = p3_problem()
+    problem.set_x0([1.0, 1.1, 0.0, 0.0])  # the centre of the first obstacle
+    trap = [ddpkit.Circle((1.0, 1.1), 10.0)]  # no bounded control leaves it within the horizon
+    sol = ddpkit.SafeCddpSolver(problem, trap).solve()
+    assert sol.status == "infeasible"
+    assert sol.iterations < 200
+    assert np.all(np.isfinite(sol.xs)) and np.all(np.isfinite(sol.us)) and np.isfinite(sol.cost)
+    # The least violating trajectory heads out: the violation at the end is below the start's.
+    g = 100.0 - (sol.xs[:, 0] - 1.0) ** 2 - (sol.xs[:, 1] - 1.1) ** 2
+    assert g[-1] < g[1] - 1.0
+
+
 def test_clarabel_qps_agree() -> None:
     fast = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), qp_method="fast").solve()
     exact = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), qp_method="clarabel").solve()
@@ -201,6 +231,7 @@ def test_solves_release_the_gil() -> None:
             "tightening.sigma_w",
         ),
         (lambda: ddpkit.SafeCddpSolver(p3_problem(), [], qp_method="osqp"), ddpkit.InvalidInputError, "qp_method"),
+        (lambda: ddpkit.SafeCddpSolver(p3_problem(), [], warm_up="penalty"), ddpkit.InvalidInputError, "warm_up"),
         (lambda: ddpkit.SafeCddpSolver(p3_problem(), [], max_iterations=0), ddpkit.InvalidInputError, "max_iterations"),
         (lambda: ddpkit.Mpc(p3_problem(), [], np.eye(4), goal=[3.0, 3.0]), ddpkit.ShapeError, "goal"),
         (lambda: ddpkit.Mpc(p3_problem(), [], np.eye(4), goal=[3.0] * 4, iterations=0), ddpkit.InvalidInputError, "iterations"),

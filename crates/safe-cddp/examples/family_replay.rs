@@ -48,7 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         s.al_rho_init = v;
     }
     if let Some(v) = env("AL_INNER") {
-        s.al_inner_iterations = v as usize;
+        s.al_cold_inner_iterations = v as usize;
     }
     if let Some(v) = env("AL_TOL") {
         s.al_inner_tolerance = v;

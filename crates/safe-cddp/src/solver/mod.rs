@@ -644,6 +644,7 @@ where
             && matches!(method, WarmUp::Barrier | WarmUp::Portfolio);
         self.warm.mu = s.barrier_mu_init;
         self.warm.fresh = true;
+        self.warm.from_cold = self.warm.cold;
         self.warm.rho = self.warm.rho.max(s.al_rho_init);
         self.warm.prev_violation = f64::INFINITY;
         self.warm.inner = 0;
@@ -873,6 +874,8 @@ where
             let inner_done = change.abs() < s.al_inner_tolerance * (1.0 + self.it.merit.abs());
             let limit = if self.warm.barrier {
                 s.barrier_inner_iterations
+            } else if self.warm.from_cold {
+                s.al_cold_inner_iterations
             } else {
                 s.al_inner_iterations
             };

@@ -38,6 +38,8 @@ pub(crate) struct WarmUpState {
     pub z_prev: Vec<f64>,
     /// The barrier's duals have not been estimated yet in this homotopy.
     pub fresh: bool,
+    /// The warm-up began at a cold start (rather than re-entering from the KKT/QP iterations).
+    pub from_cold: bool,
     /// Penalty `rho`.
     pub rho: f64,
     /// Multipliers per row.
@@ -62,6 +64,7 @@ impl WarmUpState {
             mu,
             z_prev: vec![0.0; rows],
             fresh: true,
+            from_cold: true,
             rho,
             lambda: vec![0.0; rows],
             prev_violation: f64::INFINITY,
@@ -84,6 +87,7 @@ where
         let w = &mut self.warm;
         w.active = true;
         w.barrier = false;
+        w.from_cold = false;
         w.prev_violation = f64::INFINITY;
         w.inner = 0;
         w.rho = w

@@ -321,14 +321,15 @@ impl TapeBuilder {
             return self.folded(op.value(va, vb), &format!("{}({va}, {vb})", op.name()));
         }
         match (op, ca, cb) {
-            (Binary::Add, Some(z), _) if z == 0.0 => return Ok(b),
-            (Binary::Add | Binary::Sub, _, Some(z)) if z == 0.0 => return Ok(a),
-            (Binary::Mul, Some(z), _) | (Binary::Mul, _, Some(z)) if z == 0.0 => return self.constant(0.0),
-            (Binary::Mul, Some(o), _) if o == 1.0 => return Ok(b),
-            (Binary::Mul | Binary::Div, _, Some(o)) if o == 1.0 => return Ok(a),
-            (Binary::Sub, Some(z), _) if z == 0.0 => return self.unary(Unary::Neg, b),
+            // Float patterns compare with `==`, so `-0.0` matches too.
+            (Binary::Add, Some(0.0), _) => return Ok(b),
+            (Binary::Add | Binary::Sub, _, Some(0.0)) => return Ok(a),
+            (Binary::Mul, Some(0.0), _) | (Binary::Mul, _, Some(0.0)) => return self.constant(0.0),
+            (Binary::Mul, Some(1.0), _) => return Ok(b),
+            (Binary::Mul | Binary::Div, _, Some(1.0)) => return Ok(a),
+            (Binary::Sub, Some(0.0), _) => return self.unary(Unary::Neg, b),
             (Binary::Pow, _, Some(p)) => return self.powc(a, p),
-            (Binary::IfElseZero, _, Some(z)) if z == 0.0 => return self.constant(0.0),
+            (Binary::IfElseZero, _, Some(0.0)) => return self.constant(0.0),
             _ => {}
         }
         let (a, b) = if op.commutes() && b < a { (b, a) } else { (a, b) };

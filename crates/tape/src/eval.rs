@@ -44,6 +44,8 @@ pub struct Workspace {
     pub bar: Vec<f64>,
     /// Adjoint tangents, `n` per node.
     pub bar_dot: Vec<f64>,
+    /// One dense row of `n`: a node's contribution to an argument's adjoint tangent.
+    pub row: Vec<f64>,
     /// The inputs `z`.
     pub z: Vec<f64>,
 }
@@ -167,7 +169,9 @@ impl Tape {
         for (&o, &l) in self.outputs.iter().zip(lambda) {
             ws.bar[o as usize] += l;
         }
+        grow(&mut ws.row, n);
         let (bar, bar_dot, dot, part) = (&mut ws.bar, &mut ws.bar_dot, &ws.dot, &ws.part);
+        let tmp = &mut ws.row[..n];
         for i in (0..m).rev() {
             let vbar = bar[i];
             let (lo, hi) = bar_dot.split_at_mut(i * n);
@@ -176,18 +180,27 @@ impl Tape {
                 continue;
             }
             let pi = &part[i * PARTIALS..][..PARTIALS];
+            // Each contribution is summed in `tmp` first and then added, term by term in the
+            // order of the formula above, so the result does not depend on the sparsity.
+            let mut push = |target: usize, first: f64, terms: [(usize, f64); 2], used: usize| {
+                for (t, vd) in tmp.iter_mut().zip(vbar_dot) {
+                    *t = first * vd;
+                }
+                for &(node, c) in &terms[..used] {
+                    self.add_tangent(tmp, node, dot, c);
+                }
+                for (o, t) in lo[target * n..][..n].iter_mut().zip(tmp.iter()) {
+                    *o += t;
+                }
+            };
             match self.nodes[i] {
                 Node::Input(k) => row(k as usize, vbar, vbar_dot),
                 Node::Const(_) => {}
                 Node::Unary(_, a) | Node::Powc(a, _) => {
                     let (d, dd) = (pi[0], pi[2]);
                     let a = a as usize;
+                    push(a, d, [(a, vbar * dd), (a, 0.0)], 1);
                     bar[a] += d * vbar;
-                    let out = &mut lo[a * n..][..n];
-                    for (o, vd) in out.iter_mut().zip(vbar_dot) {
-                        *o += d * vd;
-                    }
-                    self.add_tangent(out, a, dot, vbar * dd);
                 }
                 Node::Binary(_, a, b) => {
                     let (pa, pb, paa, pab, pbb) = (pi[0], pi[1], pi[2], pi[3], pi[4]);
@@ -195,21 +208,15 @@ impl Tape {
                     // For op(a, a) both sides land on one node, each adding its own terms; a
                     // constant argument has no tangent entries and gets no adjoint.
                     if !self.is_const(a) {
-                        let out = &mut lo[a * n..][..n];
-                        for (o, vd) in out.iter_mut().zip(vbar_dot) {
-                            *o += pa * vd;
-                        }
-                        self.add_tangent(out, a, dot, vbar * paa);
-                        self.add_tangent(out, b, dot, vbar * pab);
+                        push(a, pa, [(a, vbar * paa), (b, vbar * pab)], 2);
+                    }
+                    if !self.is_const(b) {
+                        push(b, pb, [(b, vbar * pbb), (a, vbar * pab)], 2);
+                    }
+                    if !self.is_const(a) {
                         bar[a] += pa * vbar;
                     }
                     if !self.is_const(b) {
-                        let out = &mut lo[b * n..][..n];
-                        for (o, vd) in out.iter_mut().zip(vbar_dot) {
-                            *o += pb * vd;
-                        }
-                        self.add_tangent(out, b, dot, vbar * pbb);
-                        self.add_tangent(out, a, dot, vbar * pab);
                         bar[b] += pb * vbar;
                     }
                 }

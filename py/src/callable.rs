@@ -200,12 +200,24 @@ pub struct CallableCost {
 }
 
 impl PartialEq for CallableCost {
+    /// The same Python functions (by identity, as pickling restores a module-level function) and sizes.
     fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.inner, &other.inner)
+        *self.inner == *other.inner && (self.nx, self.nu) == (other.nx, other.nu)
+    }
+}
+
+impl PartialEq for PyFn {
+    fn eq(&self, other: &Self) -> bool {
+        self.f.as_ptr() == other.f.as_ptr()
+            && self.jac.as_ref().map(|j| j.as_ptr()) == other.jac.as_ref().map(|j| j.as_ptr())
     }
 }
 
 impl CallableCost {
+    /// `(l, nx, nu)`: the arguments of `Cost.from_callable` that built it.
+    pub fn parts(&self, py: Python<'_>) -> (Py<PyAny>, usize, Option<usize>) {
+        (self.inner.f.clone_ref(py), self.nx, self.nu)
+    }
     /// Whether this is a terminal cost `l(x)`.
     pub fn terminal(&self) -> bool {
         self.nu.is_none()
@@ -313,6 +325,134 @@ where
     fn state_size(&self) -> Option<usize> {
         Some(self.nx)
     }
+}
+
+/// Constraints `g(x, u) <= 0` (or `g(x) <= 0`) of a Python callable returning `rows` values.
+/// Jacobians by central differences; no second derivatives (Gauss-Newton, as the obstacles).
+#[derive(Debug, Clone)]
+pub struct CallableConstraint {
+    inner: Arc<PyFn>,
+    nx: usize,
+    /// `None` for a state-only constraint `g(x)` (imposed on `x_1 .. x_N`).
+    nu: Option<usize>,
+    rows: usize,
+}
+
+impl PartialEq for CallableConstraint {
+    /// The same Python function (by identity) and sizes.
+    fn eq(&self, other: &Self) -> bool {
+        *self.inner == *other.inner && (self.nx, self.nu, self.rows) == (other.nx, other.nu, other.rows)
+    }
+}
+
+impl CallableConstraint {
+    /// `(g, nx, nu, rows)`: the arguments of `Constraint.from_callable` that built it.
+    pub fn parts(&self, py: Python<'_>) -> (Py<PyAny>, usize, Option<usize>, usize) {
+        (self.inner.f.clone_ref(py), self.nx, self.nu, self.rows)
+    }
+
+    fn eval(&self, x: &[f64], u: &[f64], out: &mut [f64]) {
+        call(&self.inner.f, &self.inner.name, x, self.nu.map(|_| u), out)
+    }
+}
+
+impl<NX: Dim, NU: Dim> safe_cddp::Constraint<NX, NU> for CallableConstraint
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn dim(&self) -> usize {
+        self.rows
+    }
+    fn depends_on_control(&self) -> bool {
+        self.nu.is_some()
+    }
+    fn evaluate(&self, _t: usize, x: &VectorN<NX>, u: &VectorN<NU>, g: &mut [f64]) {
+        if g.len() != self.rows {
+            g.fill(f64::NAN);
+            return;
+        }
+        self.eval(x.as_slice(), u.as_slice(), g);
+    }
+    fn jacobians(
+        &self,
+        _t: usize,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        g: &mut [f64],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
+    ) {
+        let m = self.rows;
+        if g.len() != m || g_x.len() != m || g_u.len() != m {
+            g.fill(f64::NAN);
+            return;
+        }
+        let (nx, nu) = (x.len(), if self.nu.is_some() { u.len() } else { 0 });
+        self.eval(x.as_slice(), u.as_slice(), g);
+        for r in g_u.iter_mut() {
+            r.fill(0.0);
+        }
+        let (mut xp, mut up) = (x.as_slice().to_vec(), u.as_slice().to_vec());
+        let (mut gp, mut gm) = (vec![0.0; m], vec![0.0; m]);
+        for j in 0..nx + nu {
+            let (v, slot) = if j < nx { (&mut xp, j) } else { (&mut up, j - nx) };
+            let z = v[slot];
+            let h = step_size(z, 1.0 / 3.0);
+            v[slot] = z + h;
+            self.eval(&xp, &up, &mut gp);
+            let v = if j < nx { &mut xp } else { &mut up };
+            v[slot] = z - h;
+            self.eval(&xp, &up, &mut gm);
+            let v = if j < nx { &mut xp } else { &mut up };
+            v[slot] = z;
+            for i in 0..m {
+                let d = (gp[i] - gm[i]) / (2.0 * h);
+                if j < nx {
+                    g_x[i][j] = d;
+                } else {
+                    g_u[i][j - nx] = d;
+                }
+            }
+        }
+    }
+    fn check_sizes(&self, nx: usize, nu: usize) -> safe_cddp::Result<()> {
+        if nx != self.nx {
+            return Err(safe_cddp::Error::Shape {
+                field: "constraint.nx".into(),
+                got: self.nx.to_string(),
+                expected: format!("{nx} (the problem's state size)"),
+            });
+        }
+        match self.nu {
+            Some(n) if n != nu => Err(safe_cddp::Error::Shape {
+                field: "constraint.nu".into(),
+                got: n.to_string(),
+                expected: format!("{nu} (the problem's control size)"),
+            }),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// `Constraint.from_callable`.
+pub fn constraint_from_callable(
+    py: Python<'_>,
+    g: &Bound<'_, PyAny>,
+    nx: i64,
+    nu: Option<i64>,
+    rows: i64,
+) -> PyResult<Py<PyAny>> {
+    let nx = positive(nx, "nx")?;
+    let nu = nu.map(|n| positive(n, "nu")).transpose()?;
+    let rows = positive(rows, "rows")?;
+    let (f, name) = checked_callable(g, "g")?;
+    let model = CallableConstraint {
+        inner: Arc::new(PyFn { f, jac: None, name }),
+        nx,
+        nu,
+        rows,
+    };
+    crate::safe::callable_constraint(py, model)
 }
 
 fn positive(v: i64, field: &str) -> PyResult<usize> {

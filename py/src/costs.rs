@@ -467,6 +467,19 @@ impl Cost {
         }
     }
 
+    /// Pickles as the call that builds the term again.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        cost_reduce(py, &self.spec)
+    }
+
+    /// Equal when the same term with equal parameters.
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Cost>()
+            .map(|o| *o.get().spec == *self.spec)
+            .unwrap_or(false)
+    }
+
     /// Whether the term depends on the state only, so it can be a terminal cost.
     #[getter]
     fn state_only(&self) -> bool {
@@ -496,6 +509,67 @@ impl Cost {
     fn from_callable(py: Python<'_>, l: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
         crate::callable::cost_from_callable(py, l, nx, nu)
     }
+}
+
+/// The call that builds `spec` again: `(constructor, arguments)` (pickling). A sum's terms are
+/// rebuilt as Python objects, each by its own call.
+pub(crate) fn cost_reduce<'py>(py: Python<'py>, spec: &CostSpec) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+    use crate::pickle::module_attr;
+    let class = || module_attr(py, spec.kind());
+    let indices = |i: &[usize; 2]| (i[0], i[1]);
+    Ok(match spec {
+        CostSpec::Quadratic { q, r, x_ref, u_ref } => (
+            class()?,
+            (q.to_numpy(py)?, r.to_numpy(py)?, x_ref.clone(), u_ref.clone()).into_pyobject(py)?,
+        ),
+        CostSpec::QuadraticTerminal { qf, x_ref } => (class()?, (qf.to_numpy(py)?, x_ref.clone()).into_pyobject(py)?),
+        CostSpec::ControlSquared { weight } => (class()?, (*weight,).into_pyobject(py)?),
+        CostSpec::SmoothDistance {
+            target,
+            indices: i,
+            eps,
+            weight,
+        } => (
+            class()?,
+            ((target[0], target[1]), indices(i), *eps, *weight).into_pyobject(py)?,
+        ),
+        CostSpec::ObstacleHinge {
+            points,
+            margin,
+            indices: i,
+            weight,
+        } => {
+            let points: Vec<Vec<f64>> = points.iter().map(|p| p.to_vec()).collect();
+            (class()?, (points, *margin, indices(i), *weight).into_pyobject(py)?)
+        }
+        CostSpec::CirclePenalty {
+            circles,
+            indices: i,
+            weight,
+        } => {
+            let circles: Vec<Vec<f64>> = circles.iter().map(|c| c.to_vec()).collect();
+            (class()?, (circles, indices(i), *weight).into_pyobject(py)?)
+        }
+        CostSpec::Tape(m) => (
+            module_attr(py, "model_from_json")?,
+            (m.to_json(None),).into_pyobject(py)?,
+        ),
+        CostSpec::Callable(c) => {
+            let (f, nx, nu) = c.parts(py);
+            (
+                module_attr(py, "Cost")?.getattr("from_callable")?,
+                (f, nx, nu).into_pyobject(py)?,
+            )
+        }
+        CostSpec::Sum { terms, .. } => {
+            let mut items = Vec::with_capacity(terms.len());
+            for (w, t) in terms {
+                let (ctor, args) = cost_reduce(py, t)?;
+                items.push((*w, ctor.call1(args)?));
+            }
+            (class()?, (PyList::new(py, items)?,).into_pyobject(py)?)
+        }
+    })
 }
 
 /// Extracts the spec of a `Cost`, naming `field` if `obj` is not one.

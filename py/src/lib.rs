@@ -30,6 +30,7 @@ pub mod costs;
 pub mod errors;
 pub mod idnp;
 pub mod models;
+pub mod pickle;
 pub mod problem;
 pub mod safe;
 pub mod sim;
@@ -51,6 +52,7 @@ fn supported_dimensions() -> Vec<(usize, usize)> {
 #[pymodule]
 fn _ddpkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
+    m.add_function(wrap_pyfunction!(pickle::unpickle_result, m)?)?;
     m.add_class::<models::Dynamics>()?;
     m.add_class::<models::Unicycle>()?;
     m.add_class::<models::Car>()?;

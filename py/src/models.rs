@@ -77,6 +77,11 @@ where
 
 #[pymethods]
 impl Dynamics {
+    /// Equal when of the same class and built from equal arguments (what pickling keeps).
+    fn __eq__(slf: &Bound<'_, Self>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        crate::pickle::reduce_equal(slf.as_any(), other)
+    }
+
     /// Number of states.
     #[getter]
     fn nx(&self) -> usize {
@@ -179,6 +184,11 @@ impl Unicycle {
         self.model.dt()
     }
 
+    /// The constructor's arguments (pickling).
+    fn __getnewargs__(&self) -> (f64,) {
+        (self.model.dt(),)
+    }
+
     fn __repr__(&self) -> String {
         format!("Unicycle(dt={})", self.model.dt())
     }
@@ -205,6 +215,11 @@ impl Car {
         self.model.dt()
     }
 
+    /// The constructor's arguments (pickling).
+    fn __getnewargs__(&self) -> (f64,) {
+        (self.model.dt(),)
+    }
+
     fn __repr__(&self) -> String {
         format!("Car(dt={})", self.model.dt())
     }
@@ -229,6 +244,11 @@ impl DoubleIntegrator2D {
     #[getter]
     fn dt(&self) -> f64 {
         self.model.dt()
+    }
+
+    /// The constructor's arguments (pickling).
+    fn __getnewargs__(&self) -> (f64,) {
+        (self.model.dt(),)
     }
 
     fn __repr__(&self) -> String {
@@ -261,6 +281,11 @@ impl DifferentialDrive {
     #[getter]
     fn track_width(&self) -> f64 {
         self.model.track_width()
+    }
+
+    /// The constructor's arguments (pickling).
+    fn __getnewargs__(&self) -> (f64, f64) {
+        (self.model.dt(), self.model.track_width())
     }
 
     fn __repr__(&self) -> String {
@@ -317,6 +342,12 @@ impl Quadrotor {
     /// The control that holds the quadrotor still when level: `(m g, 0, 0, 0)`.
     fn hover_control<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         vector_to_numpy(py, &self.model.hover_control())
+    }
+
+    /// The constructor's arguments (pickling).
+    fn __getnewargs__(&self) -> (f64, f64, (f64, f64, f64), f64) {
+        let [a, b, c] = self.model.inertia();
+        (self.model.dt(), self.model.mass(), (a, b, c), self.model.gravity())
     }
 
     fn __repr__(&self) -> String {
@@ -407,6 +438,34 @@ impl ArmBase {
         Ok(crate::convert::vec_to_numpy(py, vec![a, b]))
     }
 
+    /// The constructor's arguments (pickling).
+    #[allow(clippy::type_complexity)]
+    fn __getnewargs__(
+        &self,
+    ) -> (
+        f64,
+        f64,
+        f64,
+        (f64, f64),
+        (f64, f64),
+        (f64, f64),
+        (f64, f64),
+        (f64, f64),
+    ) {
+        let p = self.model.params();
+        let t = |v: [f64; 2]| (v[0], v[1]);
+        (
+            p.dt,
+            p.base_mass,
+            p.base_inertia,
+            t(p.base_size),
+            t(p.mount),
+            t(p.link_lengths),
+            t(p.link_masses),
+            t(p.link_inertias),
+        )
+    }
+
     fn __repr__(&self) -> String {
         format!("ArmBase(dt={})", self.model.dt())
     }
@@ -489,6 +548,15 @@ impl LinearDynamics {
     #[getter]
     fn c<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         crate::convert::vec_to_numpy(py, self.c.clone())
+    }
+
+    /// The constructor's arguments `(A, B, c)` (pickling).
+    #[allow(clippy::type_complexity)]
+    fn __getnewargs__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        Ok((self.a(py)?, self.b(py)?, self.c(py)))
     }
 
     fn __repr__(&self) -> String {

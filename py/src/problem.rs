@@ -181,6 +181,9 @@ pub struct Problem {
     pub(crate) nx: usize,
     pub(crate) nu: usize,
     pub(crate) horizon: usize,
+    /// What the problem was built from, for pickling: `(dynamics, running_cost, terminal_cost,
+    /// u_min, u_max)` (the Python objects as given; the bounds as lists or None).
+    source: Py<PyTuple>,
 }
 
 impl Problem {
@@ -206,6 +209,7 @@ impl Problem {
         u_min: Option<&Bound<'_, PyAny>>,
         u_max: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let (x0_obj, dynamics_obj) = (x0, dynamics);
         if horizon == 0 {
             return Err(CoreError(ddp_core::Error::EmptyHorizon).into());
         }
@@ -291,11 +295,24 @@ impl Problem {
             u_max: bounds_arg(u_max, "u_max", nu)?,
         };
         let problem = with_dims!(nx, nu, build(&args, nx, nu))?;
+        let py = x0_obj.py();
+        let source = PyTuple::new(
+            py,
+            [
+                dynamics_obj.clone(),
+                running_cost.clone(),
+                terminal_cost.clone(),
+                args.u_min.clone().into_pyobject(py)?,
+                args.u_max.clone().into_pyobject(py)?,
+            ],
+        )?
+        .unbind();
         Ok(Self {
             inner: Arc::new(RwLock::new(problem)),
             nx,
             nu,
             horizon,
+            source,
         })
     }
 
@@ -355,9 +372,35 @@ impl Problem {
     fn cost(&self, xs: &Bound<'_, PyAny>, us: &Bound<'_, PyAny>) -> PyResult<f64> {
         let xs = finite_arr(xs, "xs")?;
         let us = finite_arr(us, "us")?;
-        Ok(Self::read(&self.inner, |p| {
-            with_dims!(self.nx, self.nu, cost_impl(p, &xs, &us))
-        })?)
+        let r = Self::read(&self.inner, |p| with_dims!(self.nx, self.nu, cost_impl(p, &xs, &us)));
+        // An exception raised by a Python callable cost is this call's error.
+        crate::callable::raise_pending()?;
+        Ok(r?)
+    }
+
+    /// The constructor's arguments, with the current `x0` (pickling).
+    fn __getnewargs__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let src = self.source.bind(py);
+        PyTuple::new(
+            py,
+            [
+                self.x0(py)?,
+                src.get_item(0)?,
+                src.get_item(1)?,
+                src.get_item(2)?,
+                self.horizon.into_pyobject(py)?.into_any(),
+                src.get_item(3)?,
+                src.get_item(4)?,
+            ],
+        )
+    }
+
+    /// Equal when built from equal models, costs, horizon and bounds and at the same `x0`.
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let Ok(o) = other.cast::<Problem>() else {
+            return Ok(false);
+        };
+        crate::pickle::equal_values(self.__getnewargs__(py)?.as_any(), o.get().__getnewargs__(py)?.as_any())
     }
 
     fn __repr__(&self) -> String {

@@ -15,7 +15,7 @@ use std::sync::{Arc, RwLock};
 
 use ddp_core::dims::{Alloc, Const, DefaultAllocator, Dim, Dims, Dyn, VectorN};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyTuple};
 use safe_cddp::constraints::{Circle as CoreCircle, ControlBox as CoreControlBox, ConvexPolygon as CorePolygon};
 use safe_cddp::constraints::{Cylinder as CoreCylinder, StateBox as CoreStateBox};
 use safe_cddp::mpc::{Mpc as CoreMpc, MpcSettings};
@@ -29,6 +29,7 @@ use crate::convert::{finite_arr, row_major, rows_to_numpy, shape_str, stack_to_n
 use crate::dims::{internal_mismatch, problem_of, AnyProblem, Dispatch, Pair};
 use crate::errors::{invalid, shape, CoreResult};
 use crate::models::type_name;
+use crate::pickle::{field, Table};
 use crate::problem::{controls, Problem};
 use crate::solver::{method_name, parse_method};
 
@@ -65,6 +66,7 @@ enum Spec {
         upper: Vec<f64>,
     },
     Tape(Arc<ddp_tape::TapeModel>),
+    Callable(crate::callable::CallableConstraint),
 }
 
 fn bound_vector<N: Dim>(v: &[f64], field: &str, n: N) -> CoreResult<VectorN<N>>
@@ -123,6 +125,11 @@ impl Spec {
                 bound_vector(lower, &format!("{field}.lower"), d.nu)?,
                 bound_vector(upper, &format!("{field}.upper"), d.nu)?,
             )?),
+            Spec::Callable(c) => {
+                CoreConstraint::<NX, NU>::check_sizes(c, d.nx(), d.nu())
+                    .map_err(|e| crate::errors::CoreError(e).context(field))?;
+                Arc::new(c.clone())
+            }
             Spec::Tape(m) => match &**m {
                 ddp_tape::TapeModel::Constraint(c) => {
                     CoreConstraint::<NX, NU>::check_sizes(c, d.nx(), d.nu())
@@ -188,10 +195,90 @@ pub struct Constraint {
     spec: Arc<Spec>,
 }
 
+/// The call that builds `spec` again: `(constructor, arguments)` (pickling).
+fn constraint_reduce<'py>(py: Python<'py>, spec: &Spec) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+    use crate::pickle::module_attr;
+    let pair = |i: &[usize; 2]| (i[0], i[1]);
+    Ok(match spec {
+        Spec::Circle {
+            center,
+            radius,
+            indices,
+            distance,
+        } => {
+            let form = if *distance { "distance" } else { "squared" };
+            (
+                module_attr(py, "Circle")?,
+                ((center[0], center[1]), *radius, pair(indices), form).into_pyobject(py)?,
+            )
+        }
+        Spec::Polygon {
+            vertices,
+            margin,
+            indices,
+        } => {
+            let v: Vec<Vec<f64>> = vertices.iter().map(|p| p.to_vec()).collect();
+            (
+                module_attr(py, "ConvexPolygon")?,
+                (v, *margin, pair(indices)).into_pyobject(py)?,
+            )
+        }
+        Spec::Cylinder {
+            center,
+            radius,
+            height,
+            band,
+            indices,
+        } => (
+            module_attr(py, "Cylinder")?,
+            (
+                (center[0], center[1]),
+                *radius,
+                *height,
+                *band,
+                (indices[0], indices[1], indices[2]),
+            )
+                .into_pyobject(py)?,
+        ),
+        Spec::StateBox { lower, upper } => (
+            module_attr(py, "StateBox")?,
+            (lower.clone(), upper.clone()).into_pyobject(py)?,
+        ),
+        Spec::ControlBox { lower, upper } => (
+            module_attr(py, "ControlBox")?,
+            (lower.clone(), upper.clone()).into_pyobject(py)?,
+        ),
+        Spec::Tape(m) => (
+            module_attr(py, "model_from_json")?,
+            (m.to_json(None),).into_pyobject(py)?,
+        ),
+        Spec::Callable(c) => {
+            let (g, nx, nu, rows) = c.parts(py);
+            (
+                module_attr(py, "Constraint")?.getattr("from_callable")?,
+                (g, nx, nu, rows).into_pyobject(py)?,
+            )
+        }
+    })
+}
+
 #[pymethods]
 impl Constraint {
     fn __repr__(&self) -> String {
         format!("{:?}", self.spec)
+    }
+
+    /// Pickles as the call that builds the constraint again.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        constraint_reduce(py, &self.spec)
+    }
+
+    /// Equal when the same constraint with equal parameters.
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Constraint>()
+            .map(|o| *o.get().spec == *self.spec)
+            .unwrap_or(false)
     }
 
     /// Constraints `g(x, u) <= 0` traced from a Python function returning one value or a 1-D
@@ -201,6 +288,16 @@ impl Constraint {
     #[pyo3(signature = (g, nx, nu = None))]
     fn from_function(py: Python<'_>, g: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
         crate::tape::constraint_from_function(py, g, nx, nu)
+    }
+
+    /// Constraints `g(x, u) <= 0` from a plain Python callable returning `rows` values (`g(x)`
+    /// when `nu` is None: state-only rows, imposed on `x_1 .. x_N`): the slow path for what cannot
+    /// be traced. Jacobians by central finite differences; an exception raised by `g` during a
+    /// solve is raised by the solve.
+    #[staticmethod]
+    #[pyo3(signature = (g, nx, nu = None, rows = 1))]
+    fn from_callable(py: Python<'_>, g: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>, rows: i64) -> PyResult<Py<PyAny>> {
+        crate::callable::constraint_from_callable(py, g, nx, nu, rows)
     }
 
     /// Constraints read from a CasADi SX function `g(x, u)` or `g(x)` (first output, a vector).
@@ -215,6 +312,44 @@ pub(crate) fn tape_constraint(model: Arc<ddp_tape::TapeModel>) -> Constraint {
     Constraint {
         spec: Arc::new(Spec::Tape(model)),
     }
+}
+
+/// Constraints of a plain Python callable (`Constraint.from_callable`): the slow path.
+#[pyclass(module = "ddpkit._ddpkit", extends = Constraint, frozen, name = "CallableConstraint")]
+pub struct PyCallableConstraint {
+    model: crate::callable::CallableConstraint,
+}
+
+#[pymethods]
+impl PyCallableConstraint {
+    /// The Python function.
+    #[getter]
+    fn function(&self, py: Python<'_>) -> Py<PyAny> {
+        self.model.parts(py).0
+    }
+
+    /// Number of rows of `g`.
+    #[getter]
+    fn rows(&self, py: Python<'_>) -> usize {
+        self.model.parts(py).3
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> String {
+        let (_, nx, nu, rows) = self.model.parts(py);
+        format!("CallableConstraint(nx={nx}, nu={nu:?}, rows={rows})")
+    }
+}
+
+/// The Python object of a callable constraint.
+pub(crate) fn callable_constraint(py: Python<'_>, model: crate::callable::CallableConstraint) -> PyResult<Py<PyAny>> {
+    let base = Constraint {
+        spec: Arc::new(Spec::Callable(model.clone())),
+    };
+    Ok(Py::new(
+        py,
+        PyClassInitializer::from(base).add_subclass(PyCallableConstraint { model }),
+    )?
+    .into_any())
 }
 
 fn init<T: pyo3::PyClass<BaseType = Constraint>>(spec: Spec, sub: T) -> PyClassInitializer<T> {
@@ -517,6 +652,39 @@ impl Tightening {
             update_every,
         })
     }
+    /// The constructor's arguments (pickling).
+    #[allow(clippy::type_complexity)]
+    fn __getnewargs__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(
+        f64,
+        Bound<'py, PyAny>,
+        Bound<'py, PyAny>,
+        usize,
+        Option<Bound<'py, PyAny>>,
+    )> {
+        let matrix = |a: &Arr| rows_to_numpy(py, a.rows(), a.shape.get(1).copied().unwrap_or(0), a.data.clone());
+        let gains = match &self.gains {
+            GainSpec::ClosedLoop => "closed_loop".into_pyobject(py)?.into_any(),
+            GainSpec::ActiveSet => "active_set".into_pyobject(py)?.into_any(),
+            GainSpec::OpenLoop => "open_loop".into_pyobject(py)?.into_any(),
+            GainSpec::Fixed(k) => matrix(k)?,
+        };
+        let sigma_0 = self.sigma_0.as_ref().map(matrix).transpose()?;
+        Ok((self.beta, matrix(&self.sigma_w)?, gains, self.update_every, sigma_0))
+    }
+    /// Equal when built from equal arguments.
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Tightening>()
+            .map(|o| {
+                let o = o.get();
+                (o.beta, &o.sigma_w, &o.sigma_0, &o.gains, o.update_every)
+                    == (self.beta, &self.sigma_w, &self.sigma_0, &self.gains, self.update_every)
+            })
+            .unwrap_or(false)
+    }
     /// `beta`.
     #[getter]
     fn beta(&self) -> f64 {
@@ -613,7 +781,11 @@ fn default_position_indices() -> (i64, i64) {
 
 /// The defaults of `SafeCddpSolver`'s keyword arguments (`safe_cddp::Settings::default()`).
 pub(crate) fn safe_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-    let s = Settings::default();
+    safe_settings_dict(py, &Settings::default())
+}
+
+/// The keyword arguments of `SafeCddpSolver` that give `s`.
+fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("method", method_name(s.method))?;
     d.set_item("max_iterations", s.max_iterations)?;
@@ -863,6 +1035,9 @@ enum Edit {
 /// margins of Safe-CDDP (eqs. 19-20) updated every ``n2`` iterations.
 #[pyclass(module = "ddpkit._ddpkit")]
 pub struct SafeCddpSolver {
+    /// `(problem, constraints, tightening)` as given (constraints as a list), for pickling.
+    source: Py<PyTuple>,
+    settings: Settings,
     shared: Arc<RwLock<AnyProblem>>,
     inner: AnySafe,
     nx: usize,
@@ -901,7 +1076,41 @@ impl SafeCddpSolver {
         let shared = p.inner.clone();
         let t = tightening.as_ref().map(|t| t.get());
         let inner = Problem::read(&shared, |q| with_dims!(nx, nu, new_safe(q, &specs, t, settings)))?;
-        Ok(Self { shared, inner, nx, nu })
+        let py = problem.py();
+        let list = pyo3::types::PyList::new(py, constraints.try_iter()?.collect::<PyResult<Vec<_>>>()?)?;
+        let source = PyTuple::new(
+            py,
+            [
+                problem.into_any(),
+                list.into_any(),
+                tightening.map_or_else(|| py.None().into_bound(py), |t| t.into_any()),
+            ],
+        )?
+        .unbind();
+        Ok(Self {
+            source,
+            settings,
+            shared,
+            inner,
+            nx,
+            nu,
+        })
+    }
+
+    /// Pickles as its problem, constraints, tightening and settings: the unpickled solver has a
+    /// fresh workspace.
+    #[allow(clippy::type_complexity)]
+    fn __getnewargs_ex__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyTuple>, Bound<'py, PyDict>)> {
+        Ok((self.source.bind(py).clone(), safe_settings_dict(py, &self.settings)?))
+    }
+
+    /// Equal when the problems, constraints, tightenings and settings are.
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let Ok(o) = other.cast::<SafeCddpSolver>() else {
+            return Ok(false);
+        };
+        let o = o.try_borrow()?;
+        Ok(o.settings == self.settings && crate::pickle::equal_values(self.source.bind(py), o.source.bind(py))?)
     }
 
     /// Solves and returns a :class:`SafeSolution`; the GIL is released meanwhile.
@@ -933,7 +1142,10 @@ impl SafeCddpSolver {
         let (nx, nu) = (self.nx, self.nu);
         let shared = &self.shared;
         let inner = &mut self.inner;
-        Ok(py.detach(|| -> CoreResult<f64> { Problem::read(shared, |p| with_dims!(nx, nu, tighten_safe(inner, p))) })?)
+        let r =
+            py.detach(|| -> CoreResult<f64> { Problem::read(shared, |p| with_dims!(nx, nu, tighten_safe(inner, p))) });
+        crate::callable::raise_pending()?;
+        Ok(r?)
     }
 
     /// Receding horizon: drops knot 0 of the solution (controls, gains, multipliers, margins).
@@ -1029,10 +1241,78 @@ pub struct SafeSolution {
     /// Wall time of the solve inside Rust (s).
     #[pyo3(get)]
     solve_time: f64,
-    report: Report,
+    table: Table,
 }
 
+/// The fields of a `SafeSolution` as pickled, in order.
+const SAFE_SOLUTION_FIELDS: [&str; 16] = [
+    "xs",
+    "us",
+    "K",
+    "k",
+    "propagation_gains",
+    "covariances",
+    "margins",
+    "status",
+    "iterations",
+    "discarded_iterations",
+    "cost",
+    "max_violation",
+    "max_violation_tightened",
+    "tightenings",
+    "solve_time",
+    "table",
+];
+
 impl SafeSolution {
+    /// A solution from its pickled fields.
+    pub(crate) fn from_state(d: &Bound<'_, PyDict>) -> PyResult<Self> {
+        Ok(Self {
+            xs: field(d, "xs")?,
+            us: field(d, "us")?,
+            gains: field(d, "K")?,
+            feedforward: field(d, "k")?,
+            propagation_gains: field(d, "propagation_gains")?,
+            covariances: field(d, "covariances")?,
+            margins: field(d, "margins")?,
+            status: field(d, "status")?,
+            iterations: field(d, "iterations")?,
+            discarded_iterations: field(d, "discarded_iterations")?,
+            cost: field(d, "cost")?,
+            max_violation: field(d, "max_violation")?,
+            max_violation_tightened: field(d, "max_violation_tightened")?,
+            tightenings: field(d, "tightenings")?,
+            solve_time: field(d, "solve_time")?,
+            table: Table::Text(field(d, "table")?),
+        })
+    }
+
+    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        let values: [Bound<'py, PyAny>; 16] = [
+            self.xs.bind(py).clone(),
+            self.us.bind(py).clone(),
+            self.gains.bind(py).clone(),
+            self.feedforward.bind(py).clone(),
+            self.propagation_gains.bind(py).clone(),
+            self.covariances.bind(py).clone(),
+            self.margins.bind(py).clone(),
+            self.status.clone().into_pyobject(py)?.into_any(),
+            self.iterations.into_pyobject(py)?.into_any(),
+            self.discarded_iterations.into_pyobject(py)?.into_any(),
+            self.cost.into_pyobject(py)?.into_any(),
+            self.max_violation.into_pyobject(py)?.into_any(),
+            self.max_violation_tightened.into_pyobject(py)?.into_any(),
+            self.tightenings.into_pyobject(py)?.into_any(),
+            self.solve_time.into_pyobject(py)?.into_any(),
+            self.table.text().into_pyobject(py)?.into_any(),
+        ];
+        for (k, v) in SAFE_SOLUTION_FIELDS.iter().zip(values) {
+            d.set_item(k, v)?;
+        }
+        Ok(d)
+    }
+
     fn from_out(py: Python<'_>, o: Out, nx: usize, nu: usize) -> PyResult<Self> {
         let n = o.n;
         let r = o.report;
@@ -1052,7 +1332,7 @@ impl SafeSolution {
             max_violation_tightened: r.max_violation_tightened,
             tightenings: r.tightenings,
             solve_time: r.solve_time.as_secs_f64(),
-            report: r,
+            table: Table::Safe(Box::new(r)),
         })
     }
 }
@@ -1066,7 +1346,21 @@ impl SafeSolution {
     }
     /// The iteration table (deterministic: no timings).
     fn table(&self) -> String {
-        self.report.table()
+        self.table.text()
+    }
+    /// Pickles as its fields (arrays, statistics and the iteration table).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (&'static str, Bound<'py, PyDict>))> {
+        Ok((
+            crate::pickle::module_attr(py, "_unpickle_result")?,
+            ("SafeSolution", self.state(py)?),
+        ))
+    }
+    /// Equal when every field is (arrays by value, the iteration table by text).
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        match other.cast::<SafeSolution>() {
+            Ok(o) => crate::pickle::equal_values(self.state(py)?.as_any(), o.get().state(py)?.as_any()),
+            Err(_) => Ok(false),
+        }
     }
     fn __repr__(&self) -> String {
         format!(
@@ -1300,6 +1594,7 @@ impl Episode {
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Constraint>()?;
     m.add_class::<Circle>()?;
+    m.add_class::<PyCallableConstraint>()?;
     m.add_class::<ConvexPolygon>()?;
     m.add_class::<Cylinder>()?;
     m.add_class::<StateBox>()?;

@@ -13,6 +13,7 @@ use pyo3::types::PyDict;
 use crate::convert::{check_allocation, finite_arr, row_major, rows_to_numpy, stack_to_numpy, vec_to_numpy, Arr};
 use crate::dims::{problem_of, solver_mut_of, solver_of, AnyProblem, AnySolver, Dispatch, Pair};
 use crate::errors::{invalid, CoreError, CoreResult};
+use crate::pickle::{equal_values, field, module_attr, Table};
 use crate::problem::{controls, Problem};
 
 /// Plain-data results of a solve, copied out of the workspace without the GIL.
@@ -393,7 +394,7 @@ impl Solver {
             forward_passes: out.forward_passes,
             solve_time: out.solve_time,
             cost_history: vec_to_numpy(py, out.cost_history).unbind(),
-            report: out.report,
+            table: Table::Core(Box::new(out.report)),
         })
     }
 
@@ -425,6 +426,22 @@ impl Solver {
     #[getter]
     fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         settings_dict(py, &self.settings)
+    }
+
+    /// Pickles as its problem and settings: the unpickled solver has a fresh workspace (the next
+    /// solve is a cold start unless `us0` is given).
+    #[allow(clippy::type_complexity)]
+    fn __getnewargs_ex__<'py>(&self, py: Python<'py>) -> PyResult<((Py<Problem>,), Bound<'py, PyDict>)> {
+        Ok(((self.problem.clone_ref(py),), settings_dict(py, &self.settings)?))
+    }
+
+    /// Equal when the problems and the settings are.
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let Ok(o) = other.cast::<Solver>() else {
+            return Ok(false);
+        };
+        let o = o.try_borrow()?;
+        Ok(o.settings == self.settings && self.problem.bind(py).eq(o.problem.bind(py))?)
     }
 
     /// Number of states.
@@ -503,7 +520,74 @@ pub struct Solution {
     #[pyo3(get)]
     cost_history: Py<PyAny>,
     /// The solver's report, kept to print the iteration table on demand.
-    report: Report,
+    table: Table,
+}
+
+/// The fields of a `Solution` as pickled, in order.
+const SOLUTION_FIELDS: [&str; 15] = [
+    "xs",
+    "us",
+    "K",
+    "k",
+    "status",
+    "iterations",
+    "cost",
+    "initial_cost",
+    "gradient",
+    "mu",
+    "backward_passes",
+    "forward_passes",
+    "solve_time",
+    "cost_history",
+    "table",
+];
+
+impl Solution {
+    /// A solution from its pickled fields.
+    pub(crate) fn from_state(d: &Bound<'_, PyDict>) -> PyResult<Self> {
+        Ok(Self {
+            xs: field(d, "xs")?,
+            us: field(d, "us")?,
+            gains: field(d, "K")?,
+            feedforward: field(d, "k")?,
+            status: field(d, "status")?,
+            iterations: field(d, "iterations")?,
+            cost: field(d, "cost")?,
+            initial_cost: field(d, "initial_cost")?,
+            gradient: field(d, "gradient")?,
+            mu: field(d, "mu")?,
+            backward_passes: field(d, "backward_passes")?,
+            forward_passes: field(d, "forward_passes")?,
+            solve_time: field(d, "solve_time")?,
+            cost_history: field(d, "cost_history")?,
+            table: Table::Text(field(d, "table")?),
+        })
+    }
+
+    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        let values: [Bound<'py, PyAny>; 15] = [
+            self.xs.bind(py).clone(),
+            self.us.bind(py).clone(),
+            self.gains.bind(py).clone(),
+            self.feedforward.bind(py).clone(),
+            self.status.clone().into_pyobject(py)?.into_any(),
+            self.iterations.into_pyobject(py)?.into_any(),
+            self.cost.into_pyobject(py)?.into_any(),
+            self.initial_cost.into_pyobject(py)?.into_any(),
+            self.gradient.into_pyobject(py)?.into_any(),
+            self.mu.into_pyobject(py)?.into_any(),
+            self.backward_passes.into_pyobject(py)?.into_any(),
+            self.forward_passes.into_pyobject(py)?.into_any(),
+            self.solve_time.into_pyobject(py)?.into_any(),
+            self.cost_history.bind(py).clone(),
+            self.table.text().into_pyobject(py)?.into_any(),
+        ];
+        for (k, v) in SOLUTION_FIELDS.iter().zip(values) {
+            d.set_item(k, v)?;
+        }
+        Ok(d)
+    }
 }
 
 #[pymethods]
@@ -516,7 +600,20 @@ impl Solution {
 
     /// The iteration table (deterministic: no timings).
     fn table(&self) -> String {
-        self.report.table()
+        self.table.text()
+    }
+
+    /// Pickles as its fields (arrays, statistics and the iteration table).
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (&'static str, Bound<'py, PyDict>))> {
+        Ok((module_attr(py, "_unpickle_result")?, ("Solution", self.state(py)?)))
+    }
+
+    /// Equal when every field is (arrays by value, the iteration table by text).
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        match other.cast::<Solution>() {
+            Ok(o) => equal_values(self.state(py)?.as_any(), o.get().state(py)?.as_any()),
+            Err(_) => Ok(false),
+        }
     }
 
     fn __repr__(&self) -> String {

@@ -438,3 +438,45 @@ def test_traced_models_solve_from_many_threads() -> None:
     for r in results:
         assert r.cost == expected.cost and r.iterations == expected.iterations
         np.testing.assert_array_equal(r.us, expected.us)
+
+
+def obstacle_rows(x):
+    return np.array([r**2 - ((x[0] - ox) ** 2 + (x[1] - oy) ** 2) for ox, oy, r in OBSTACLES])
+
+
+def test_callable_constraints_are_the_slow_path_with_finite_differences() -> None:
+    slow = ddpkit.Constraint.from_callable(obstacle_rows, nx=4, rows=3)
+    assert isinstance(slow, ddpkit.CallableConstraint) and slow.rows == 3
+    tight = ddpkit.Tightening(beta=0.9, sigma_w=0.001 * np.eye(4))
+    fast = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [traced_obstacles()], tightening=tight).solve()
+    sol = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [slow], tightening=tight).solve()
+    assert fast.converged and sol.converged, sol.status
+    assert sol.cost == pytest.approx(fast.cost, rel=1e-5)
+    assert sol.max_violation <= 1e-6
+    # A wrong row count is an error naming the function, raised by the solve.
+    wrong = ddpkit.Constraint.from_callable(obstacle_rows, nx=4, rows=2)
+    with pytest.raises(ddpkit.ShapeError, match="obstacle_rows"):
+        ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [wrong]).solve()
+    # Sizes are checked against the problem when the solver is built.
+    with pytest.raises(ddpkit.ShapeError, match="nx"):
+        ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [ddpkit.Constraint.from_callable(obstacle_rows, nx=3, rows=3)])
+    with pytest.raises(ddpkit.InvalidInputError, match="rows"):
+        ddpkit.Constraint.from_callable(obstacle_rows, nx=4, rows=0)
+
+
+def test_an_exception_in_a_callable_cost_reaches_problem_cost() -> None:
+    def bad(x, u):
+        raise Boom("cost table missing")
+
+    problem = ddpkit.Problem(
+        x0=np.zeros(4),
+        dynamics=traced_cartpole(),
+        running_cost=ddpkit.Cost.from_callable(bad, nx=4, nu=1),
+        terminal_cost=ddpkit.Cost.from_function(terminal, nx=4),
+        horizon=10,
+    )
+    us = np.zeros((10, 1))
+    with pytest.raises(Boom, match="cost table missing"):
+        problem.cost(problem.rollout(us), us)
+    # Nothing is left pending: the next evaluation on this thread is clean.
+    assert ddpkit.Cost.from_function(terminal, nx=4).value(np.zeros(4)) == pytest.approx(50.0 * np.pi**2)

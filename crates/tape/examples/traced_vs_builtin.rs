@@ -70,7 +70,7 @@ where
         method,
         ..Settings::default()
     };
-    let (tb, ib, cb) = time(builtin, settings.clone(), 200);
+    let (tb, ib, cb) = time(builtin, settings, 200);
     let (tt, it, ct) = time(traced, settings, 200);
     println!(
         "{name:<22} {method:<5?} built-in {tb:8.2} us/iter ({ib} it, cost {cb:.6})  traced {tt:8.2} us/iter ({it} it, cost {ct:.6})  ratio {:.2}",

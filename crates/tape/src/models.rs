@@ -136,7 +136,7 @@ where
         (Some(self.nx), Some(self.nu))
     }
     fn jacobians(&self, x: &VectorN<NX>, u: &VectorN<NU>, fx: &mut MatrixN<NX, NX>, fu: &mut MatrixN<NX, NU>) {
-        let (nx, n) = (self.nx, self.nx + self.nu);
+        let nx = self.nx;
         if !self.fits(x.len(), u.len()) || fx.len() != nx * nx || fu.len() != nx * self.nu {
             fx.fill(f64::NAN);
             fu.fill(f64::NAN);
@@ -144,13 +144,18 @@ where
         }
         with_inputs(x.as_slice(), Some(u.as_slice()), |z, ws| {
             self.tape.forward(z, ws, true);
+            fx.fill(0.0);
+            fu.fill(0.0);
+            let cols = self.tape.tangent_columns();
             for (i, &o) in self.tape.outputs().iter().enumerate() {
-                let row = &ws.dot[o as usize * n..][..n];
-                for j in 0..nx {
-                    fx[(i, j)] = row[j];
-                }
-                for j in 0..self.nu {
-                    fu[(i, j)] = row[nx + j];
+                let (s, e) = self.tape.tangent_range(o as usize);
+                for (&c, &v) in cols[s..e].iter().zip(&ws.dot[s..e]) {
+                    let c = c as usize;
+                    if c < nx {
+                        fx[(i, c)] = v;
+                    } else {
+                        fu[(i, c - nx)] = v;
+                    }
                 }
             }
         });
@@ -387,16 +392,22 @@ where
             g.fill(f64::NAN);
             return;
         }
-        let (nx, n) = (self.nx, self.tape.n_inputs());
+        let nx = self.nx;
         with_inputs(x.as_slice(), self.control(u.as_slice()), |z, ws| {
             self.tape.forward(z, ws, true);
+            let cols = self.tape.tangent_columns();
             for (i, &o) in self.tape.outputs().iter().enumerate() {
                 g[i] = ws.val[o as usize];
-                let row = &ws.dot[o as usize * n..][..n];
-                g_x[i].as_mut_slice().copy_from_slice(&row[..nx]);
-                match self.nu {
-                    Some(_) => g_u[i].as_mut_slice().copy_from_slice(&row[nx..]),
-                    None => g_u[i].fill(0.0),
+                g_x[i].fill(0.0);
+                g_u[i].fill(0.0);
+                let (s, e) = self.tape.tangent_range(o as usize);
+                for (&c, &v) in cols[s..e].iter().zip(&ws.dot[s..e]) {
+                    let c = c as usize;
+                    if c < nx {
+                        g_x[i][c] = v;
+                    } else if self.nu.is_some() {
+                        g_u[i][c - nx] = v;
+                    }
                 }
             }
         });

@@ -45,12 +45,75 @@ pub struct Tape {
     pub(crate) n_inputs: usize,
     pub(crate) nodes: Vec<Node>,
     pub(crate) outputs: Vec<u32>,
+    /// Tangent sparsity: node `i` depends on the inputs `cols[off[i]..off[i + 1]]` (sorted),
+    /// derived from `nodes`.
+    pub(crate) off: Vec<u32>,
+    pub(crate) cols: Vec<u32>,
+}
+
+/// The tangent sparsity of `nodes`: `(off, cols)` with node `i` depending on the inputs
+/// `cols[off[i]..off[i + 1]]`, sorted (an input on itself, a constant on none, an operation on
+/// the union of its arguments').
+fn tangent_pattern(nodes: &[Node]) -> (Vec<u32>, Vec<u32>) {
+    let mut off = Vec::with_capacity(nodes.len() + 1);
+    off.push(0u32);
+    let mut cols: Vec<u32> = Vec::new();
+    let mut merged: Vec<u32> = Vec::new();
+    for node in nodes {
+        let range = |i: u32, off: &[u32]| off[i as usize] as usize..off[i as usize + 1] as usize;
+        match *node {
+            Node::Input(k) => cols.push(k),
+            Node::Const(_) => {}
+            Node::Unary(_, a) | Node::Powc(a, _) => cols.extend_from_within(range(a, &off)),
+            Node::Binary(_, a, b) => {
+                let (x, y) = (&cols[range(a, &off)], &cols[range(b, &off)]);
+                merged.clear();
+                let (mut i, mut j) = (0, 0);
+                while i < x.len() || j < y.len() {
+                    let next = match (x.get(i), y.get(j)) {
+                        (Some(&p), Some(&q)) if p == q => {
+                            i += 1;
+                            j += 1;
+                            p
+                        }
+                        (Some(&p), Some(&q)) if p < q => {
+                            i += 1;
+                            p
+                        }
+                        (Some(_), Some(&q)) | (None, Some(&q)) => {
+                            j += 1;
+                            q
+                        }
+                        (Some(&p), None) => {
+                            i += 1;
+                            p
+                        }
+                        (None, None) => break,
+                    };
+                    merged.push(next);
+                }
+                cols.extend_from_slice(&merged);
+            }
+        }
+        off.push(cols.len() as u32);
+    }
+    (off, cols)
 }
 
 impl Tape {
     /// Number of inputs.
     pub fn n_inputs(&self) -> usize {
         self.n_inputs
+    }
+    /// The range of node `i`'s compact tangent in [`crate::eval::Workspace::dot`] (and of its
+    /// columns in [`Tape::tangent_columns`]).
+    #[inline]
+    pub fn tangent_range(&self, i: usize) -> (usize, usize) {
+        (self.off[i] as usize, self.off[i + 1] as usize)
+    }
+    /// The inputs every node depends on, node after node (see [`Tape::tangent_range`]).
+    pub fn tangent_columns(&self) -> &[u32] {
+        &self.cols
     }
     /// Number of outputs.
     pub fn n_outputs(&self) -> usize {
@@ -258,14 +321,15 @@ impl TapeBuilder {
             return self.folded(op.value(va, vb), &format!("{}({va}, {vb})", op.name()));
         }
         match (op, ca, cb) {
-            (Binary::Add, Some(z), _) if z == 0.0 => return Ok(b),
-            (Binary::Add | Binary::Sub, _, Some(z)) if z == 0.0 => return Ok(a),
-            (Binary::Mul, Some(z), _) | (Binary::Mul, _, Some(z)) if z == 0.0 => return self.constant(0.0),
-            (Binary::Mul, Some(o), _) if o == 1.0 => return Ok(b),
-            (Binary::Mul | Binary::Div, _, Some(o)) if o == 1.0 => return Ok(a),
-            (Binary::Sub, Some(z), _) if z == 0.0 => return self.unary(Unary::Neg, b),
+            // Float patterns compare with `==`, so `-0.0` matches too.
+            (Binary::Add, Some(0.0), _) => return Ok(b),
+            (Binary::Add | Binary::Sub, _, Some(0.0)) => return Ok(a),
+            (Binary::Mul, Some(0.0), _) | (Binary::Mul, _, Some(0.0)) => return self.constant(0.0),
+            (Binary::Mul, Some(1.0), _) => return Ok(b),
+            (Binary::Mul | Binary::Div, _, Some(1.0)) => return Ok(a),
+            (Binary::Sub, Some(0.0), _) => return self.unary(Unary::Neg, b),
             (Binary::Pow, _, Some(p)) => return self.powc(a, p),
-            (Binary::IfElseZero, _, Some(z)) if z == 0.0 => return self.constant(0.0),
+            (Binary::IfElseZero, _, Some(0.0)) => return self.constant(0.0),
             _ => {}
         }
         let (a, b) = if op.commutes() && b < a { (b, a) } else { (a, b) };
@@ -306,10 +370,13 @@ impl TapeBuilder {
             new_id[i] = nodes.len() as u32;
             nodes.push(node);
         }
+        let (off, cols) = tangent_pattern(&nodes);
         Ok(Tape {
             n_inputs: self.n_inputs,
             nodes,
             outputs: outputs.iter().map(|&o| new_id[o as usize]).collect(),
+            off,
+            cols,
         })
     }
 

@@ -20,7 +20,11 @@ fn jacobian(t: &Tape, z: &[f64]) -> Vec<Vec<f64>> {
     let n = t.n_inputs();
     t.outputs()
         .iter()
-        .map(|&o| ws.dot[o as usize * n..][..n].to_vec())
+        .map(|&o| {
+            let mut row = vec![0.0; n];
+            t.tangent_row(&ws, o as usize, &mut row);
+            row
+        })
         .collect()
 }
 

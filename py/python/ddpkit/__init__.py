@@ -52,6 +52,7 @@ arrays) and the simulated Safe-CDDP Turtlebot experiment (Alcan and Kyrki (2022)
 from ddpkit._ddpkit import (
     ArmBase,
     CallableCost,
+    CallableConstraint,
     CallableDynamics,
     Car,
     Circle,
@@ -105,6 +106,7 @@ from ddpkit import trace
 __all__ = [
     "ArmBase",
     "CallableCost",
+    "CallableConstraint",
     "CallableDynamics",
     "Car",
     "Circle",

@@ -43,6 +43,8 @@ __all__ = [
     "BEZIER_DEFAULT_ACCURACY",
     "Bezier",
     "CallableCost",
+    "CallableConstraint",
+    "_unpickle_result",
     "CallableDynamics",
     "Car",
     "Circle",
@@ -581,6 +583,8 @@ class Solver:
         armijo: float = 1e-4,
         box_qp_iterations: int = 100,
     ) -> Self: ...
+    def __getnewargs_ex__(self) -> tuple[tuple[Problem], dict[str, Any]]:
+        """Pickles as its problem and settings; the unpickled solver has a fresh workspace."""
     def solve(self, us0: Optional[_ArrayLike] = None, warm_start: bool = False) -> Solution:
         """Solves the problem.
 
@@ -1030,6 +1034,16 @@ class Constraint:
         array of rows (``g(x)`` when ``nu`` is None). Rows not depending on ``u`` are state-only
         (imposed on ``x_1 .. x_N``, as the obstacles)."""
     @staticmethod
+    @staticmethod
+    def from_callable(g: Any, nx: int, nu: Optional[int] = None, rows: int = 1) -> CallableConstraint:
+        """Constraints ``g(x, u) <= 0`` from a plain Python callable returning ``rows`` values
+        (``g(x)`` when ``nu`` is None: state-only rows, imposed on ``x_1 .. x_N``): the slow path
+        for what cannot be traced. Jacobians by central finite differences; an exception raised
+        by ``g`` during a solve is raised by the solve. Pickles where ``g`` does."""
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickles as the call that builds the constraint again."""
+    def __eq__(self, value: object, /) -> bool:
+        """Equal when the same constraint with equal parameters."""
     def from_casadi(g: Any) -> TapeConstraint:
         """Constraints read from a CasADi SX function ``g(x, u)`` or ``g(x)``; state-only when no
         output depends on ``u``."""
@@ -1123,6 +1137,20 @@ class CallableCost(Cost):
     def function(self) -> Any:
         """The Python function."""
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]: ...
+
+@final
+class CallableConstraint(Constraint):
+    """Constraints of a plain Python callable (:meth:`Constraint.from_callable`): the slow path."""
+
+    @property
+    def function(self) -> Any:
+        """The Python function."""
+    @property
+    def rows(self) -> int:
+        """Number of rows of ``g``."""
+
+def _unpickle_result(kind: str, state: dict[str, Any]) -> Union[Solution, SafeSolution]:
+    """Rebuilds a pickled :class:`Solution` or :class:`SafeSolution` from its fields."""
 
 def load_model(path: Union[str, os.PathLike[str]]) -> Union[TapeDynamics, TapeCost, TapeConstraint]:
     """Loads a model saved by ``save`` (or by ``ddp_tape::TapeModel::save`` in Rust); every field
@@ -1252,6 +1280,8 @@ class SafeCddpSolver:
         qp_method: str = "fast",
         warm_up: str = "portfolio",
     ) -> Self: ...
+    def __getnewargs_ex__(self) -> tuple[tuple[Any, ...], dict[str, Any]]:
+        """Pickles as its problem, constraints, tightening and settings (a fresh workspace)."""
     def solve(self, us0: Optional[_ArrayLike] = None, warm_start: bool = False) -> SafeSolution:
         """Solves from ``us0`` (shape ``(n, nu)``), the last controls (``warm_start``) or zeros."""
     def tighten(self) -> float:

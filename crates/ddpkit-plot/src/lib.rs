@@ -177,7 +177,7 @@ where
 }
 
 /// Draws the legend of the series labelled so far, on a white box with a grey border.
-pub fn legend<DB: DrawingBackend>(chart: &mut Chart<'_, DB>, position: SeriesLabelPosition) -> Result<(), Failure>
+pub fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>, position: SeriesLabelPosition) -> Result<(), Failure>
 where
     DB::ErrorType: 'static,
 {
@@ -191,6 +191,9 @@ where
         .draw()?;
     Ok(())
 }
+
+/// A pixel position on a figure (plotters' backend coordinate).
+pub type BackendCoord = (i32, i32);
 
 /// A legend key for a line of `style` (dashed as 6 px on, 4 px off when `dashed`).
 pub fn line_key(style: ShapeStyle) -> impl Fn(BackendCoord) -> PathElement<BackendCoord> {

@@ -17,7 +17,7 @@
 //! | [`registry`] | every planner by name ([`PlannerKind`]) |
 //! | [`run`] | the loop, [`RunConfig`], [`RunResult`], observers |
 //! | [`log`] | MCAP logs through the Foxglove SDK (protobuf, transform tree `map` -> `base_link` -> `laser`) |
-| `live` | (feature `live`) the same topics served live over Foxglove's WebSocket protocol |
+//! | `live` | (feature `live`) the same topics served live over Foxglove's WebSocket protocol |
 //! | [`plot`] | PNG top views like the paper's Fig. 5, with axes, legend and title (`ddpkit-plot`) |
 //! | [`table`] | the paper's Table I |
 //! | [`traps`] | seeded random trap maps (U, L, cube clusters, cylinder cups) for `trap-bench` |

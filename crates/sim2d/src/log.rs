@@ -61,31 +61,38 @@ impl LogOptions {
 /// Seconds between repeats of `/world` (so a live viewer that joins late sees the obstacles).
 const WORLD_PERIOD: f64 = 10.0;
 
-/// The per-cycle numbers of `/stats`, plottable in Foxglove (`/stats.speed`, `/stats.cycle_ms`).
-#[derive(Debug, Clone, Default, PartialEq, foxglove::Encode)]
-pub struct CycleStats {
-    /// Simulated time.
-    pub timestamp: Timestamp,
-    /// Speed driven since the previous cycle (m/s).
-    pub speed: f64,
-    /// Commanded speed `v` (m/s).
-    pub v_cmd: f64,
-    /// Commanded turn rate `w` (rad/s).
-    pub w_cmd: f64,
-    /// Compute time of this cycle's plan: set-up and every epoch (ms; 0 without a plan).
-    pub cycle_ms: f64,
-    /// Longest optimisation epoch of this cycle (ms).
-    pub epoch_ms_max: f64,
-    /// Set-up time of this cycle's plan (ms): problem, initial guess, sub-goals.
-    pub setup_ms: f64,
-    /// Of `setup_ms`, the sub-goal computation (ms).
-    pub subgoal_ms: f64,
-    /// Cost after the last epoch.
-    pub cost: f64,
-    /// Progress along the route (m).
-    pub progress_m: f64,
-    /// Contact onsets with obstacles so far.
-    pub collisions: u32,
+pub use stats::CycleStats;
+
+/// In a module of its own: the derive macro's expansion names `Result` unqualified.
+mod stats {
+    use foxglove::messages::Timestamp;
+
+    /// The per-cycle numbers of `/stats`, plottable in Foxglove (`/stats.speed`, `/stats.cycle_ms`).
+    #[derive(Debug, Clone, Default, PartialEq, foxglove::Encode)]
+    pub struct CycleStats {
+        /// Simulated time.
+        pub timestamp: Timestamp,
+        /// Speed driven since the previous cycle (m/s).
+        pub speed: f64,
+        /// Commanded speed `v` (m/s).
+        pub v_cmd: f64,
+        /// Commanded turn rate `w` (rad/s).
+        pub w_cmd: f64,
+        /// Compute time of this cycle's plan: set-up and every epoch (ms; 0 without a plan).
+        pub cycle_ms: f64,
+        /// Longest optimisation epoch of this cycle (ms).
+        pub epoch_ms_max: f64,
+        /// Set-up time of this cycle's plan (ms): problem, initial guess, sub-goals.
+        pub setup_ms: f64,
+        /// Of `setup_ms`, the sub-goal computation (ms).
+        pub subgoal_ms: f64,
+        /// Cost after the last epoch.
+        pub cost: f64,
+        /// Progress along the route (m).
+        pub progress_m: f64,
+        /// Contact onsets with obstacles so far.
+        pub collisions: u32,
+    }
 }
 
 /// The channels of every topic, on one context (a log file's, or the live view's).

@@ -15,8 +15,8 @@ use numpy::ndarray::Array1;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyString};
-use sim2d::turtlebot::{experiment_json, run_experiment, write_figure, Experiment, TurtlebotConfig, TurtlebotRun};
 use sim2d::log::{LogOptions, Recorder};
+use sim2d::turtlebot::{experiment_json, run_experiment, write_figure, Experiment, TurtlebotConfig, TurtlebotRun};
 use sim2d::{Direction, Observer, PlannerKind, RunConfig, RunResult, Scenario};
 
 use crate::convert::{rows_to_numpy, vec_to_numpy};

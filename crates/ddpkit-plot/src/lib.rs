@@ -112,7 +112,8 @@ pub struct Axes {
     pub x: Range<f64>,
     /// y range.
     pub y: Range<f64>,
-    /// Draw the tick labels and axis labels (off only to compare renders in tests).
+    /// Draw the title, tick labels and axis labels (off only to compare renders in tests;
+    /// figures then leave out their legend too).
     pub text: bool,
 }
 
@@ -152,7 +153,11 @@ where
 {
     let (left, bottom, top, m) = FRAME;
     let mut builder = ChartBuilder::on(area);
-    builder.margin(m).margin_top(0).x_label_area_size(bottom).y_label_area_size(left);
+    builder
+        .margin(m)
+        .margin_top(0)
+        .x_label_area_size(bottom)
+        .y_label_area_size(left);
     if axes.text && !axes.title.is_empty() {
         builder.caption(&axes.title, (FAMILY, 18));
     } else {
@@ -170,14 +175,18 @@ where
     if axes.text {
         mesh.x_desc(&axes.x_label).y_desc(&axes.y_label);
     } else {
-        mesh.x_label_formatter(&|_| String::new()).y_label_formatter(&|_| String::new());
+        mesh.x_label_formatter(&|_| String::new())
+            .y_label_formatter(&|_| String::new());
     }
     mesh.draw()?;
     Ok(c)
 }
 
 /// Draws the legend of the series labelled so far, on a white box with a grey border.
-pub fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>, position: SeriesLabelPosition) -> Result<(), Failure>
+pub fn legend<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    position: SeriesLabelPosition,
+) -> Result<(), Failure>
 where
     DB::ErrorType: 'static,
 {

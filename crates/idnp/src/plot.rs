@@ -72,7 +72,11 @@ pub fn figure(
                 );
                 if drawn.insert(key) {
                     let r = [xy([cell.min()[0], cell.max()[1]]), xy([cell.max()[0], cell.min()[1]])];
-                    if cell.level == 0 { roots.push(r) } else { splits.push(r) }
+                    if cell.level == 0 {
+                        roots.push(r)
+                    } else {
+                        splits.push(r)
+                    }
                 }
             }
         }

@@ -130,7 +130,11 @@ pub fn run_batch(jobs: &[Job], options: &BatchOptions) -> Result<Vec<RunResult>>
         }
     }
     // A live view shows one run at a time.
-    let threads = if options.live.is_some() { Some(1) } else { options.threads };
+    let threads = if options.live.is_some() {
+        Some(1)
+    } else {
+        options.threads
+    };
     let total: f64 = jobs.iter().map(|j| j.scenario.route.length()).sum();
     let bar = if options.progress {
         let b = ProgressBar::new(total as u64);
@@ -214,11 +218,7 @@ pub fn write_figures(dir: &Path, jobs: &[Job], results: &[RunResult]) -> Result<
             })
             .collect();
         let path = dir.join(format!("{name}_{}.png", direction.name()));
-        let title = format!(
-            "{name}: {} route, {} run(s), top view",
-            direction.name(),
-            tracks.len()
-        );
+        let title = format!("{name}: {} route, {} run(s), top view", direction.name(), tracks.len());
         top_view(&path, &title, scenario, &route, &tracks, PlotOptions::default())?;
         written.push(path);
     }

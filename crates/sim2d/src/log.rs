@@ -15,7 +15,7 @@
 //! | `/subgoals` | `foxglove.SceneUpdate`: the sub-goals (`ddpen`, `ddpen-oracle`) | `map` | every plan |
 //! | `/goal` | `foxglove.PoseInFrame`: the local goal | `map` | 10 Hz |
 //! | `/world` | `foxglove.SceneUpdate`: obstacles, route, route points | `map` | at the start, then every 10 s |
-//! | `/stats` | `ddpkit.CycleStats`: speeds, compute times, cost, progress (plottable numbers) | | 10 Hz |
+//! | `/stats` | `cyclestats.CycleStats` ([`CycleStats`], schema derived by the SDK): speeds, compute times, cost, progress (plottable numbers) | | 10 Hz |
 //!
 //! Times are simulated time from 0. The file is written as `<name>.partial` and renamed when the
 //! run ends, so a log is whole or absent: a run that fails, or a write that fails on the way,
@@ -419,7 +419,11 @@ fn transform(t: f64, parent: &str, child: &str, p: [f64; 3]) -> FrameTransform {
         timestamp: stamp(t),
         parent_frame_id: parent.into(),
         child_frame_id: child.into(),
-        translation: Some(Vector3 { x: p[0], y: p[1], z: 0.0 }),
+        translation: Some(Vector3 {
+            x: p[0],
+            y: p[1],
+            z: 0.0,
+        }),
         rotation: Some(quat(p[2])),
     }
 }
@@ -453,13 +457,8 @@ impl Recorder {
                 Obstacle::Polygon { points } => e.lines.push(line(points, 0.0, 0.08, grey, true)),
             }
         }
-        e.lines.push(line(
-            info.route.points(),
-            0.01,
-            0.06,
-            color(0.2, 0.7, 0.3, 0.8),
-            false,
-        ));
+        e.lines
+            .push(line(info.route.points(), 0.01, 0.06, color(0.2, 0.7, 0.3, 0.8), false));
         for p in info.route.points() {
             e.spheres.push(sphere(*p, 0.8, color(0.2, 0.8, 0.3, 0.6)));
         }
@@ -556,7 +555,8 @@ impl Observer for Recorder {
             self.log(|s| &s.plan, &update(e), t);
             if self.guide_is_path {
                 let mut e = entity(t, "map", "astar");
-                e.lines.push(line(&plan.guide, 0.03, 0.04, color(0.9, 0.5, 0.1, 0.9), false));
+                e.lines
+                    .push(line(&plan.guide, 0.03, 0.04, color(0.9, 0.5, 0.1, 0.9), false));
                 self.log(|s| &s.astar, &update(e), t);
             } else if !plan.guide.is_empty() {
                 let mut e = entity(t, "map", "subgoals");
@@ -640,7 +640,9 @@ pub struct LiveLink {
 
 impl std::fmt::Debug for LiveLink {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("LiveLink").field("rate", &self.rate).finish_non_exhaustive()
+        f.debug_struct("LiveLink")
+            .field("rate", &self.rate)
+            .finish_non_exhaustive()
     }
 }
 

@@ -86,8 +86,10 @@ pub fn top_view(
     options: PlotOptions,
 ) -> Result<()> {
     let (axes, size) = top_view_axes(title, scenario, options);
-    ddpkit_plot::write_png(path, size, |root| draw_top_view(root, &axes, scenario, route, tracks, options))
-        .map_err(|e| Error::write(path, e))
+    ddpkit_plot::write_png(path, size, |root| {
+        draw_top_view(root, &axes, scenario, route, tracks, options)
+    })
+    .map_err(|e| Error::write(path, e))
 }
 
 /// The axes (metres, equal scale) and the figure size of a top view.
@@ -195,14 +197,21 @@ where
             .legend(cross_key(style));
     }
     let start = RGBColor(30, 170, 40).filled();
-    c.draw_series(std::iter::once(Circle::new(xy(&route.start()), (0.9 * s) as i32, start)))?
-        .label("start")
-        .legend(disc_key(start, 5));
+    c.draw_series(std::iter::once(Circle::new(
+        xy(&route.start()),
+        (0.9 * s) as i32,
+        start,
+    )))?
+    .label("start")
+    .legend(disc_key(start, 5));
     let end = RGBColor(220, 30, 30).filled();
     c.draw_series(std::iter::once(Circle::new(xy(&route.end()), (0.9 * s) as i32, end)))?
         .label("end")
         .legend(disc_key(end, 5));
-    ddpkit_plot::legend(&mut c, SeriesLabelPosition::UpperRight)
+    if axes.text {
+        ddpkit_plot::legend(&mut c, SeriesLabelPosition::UpperRight)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -228,7 +237,14 @@ mod tests {
             let (mut axes, size) = top_view_axes("t: forward", &s, PlotOptions::default());
             axes.text = text;
             let img = ddpkit_plot::render_rgb(size, |root| {
-                draw_top_view(root, &axes, &s, &s.route, std::slice::from_ref(&track), PlotOptions::default())
+                draw_top_view(
+                    root,
+                    &axes,
+                    &s,
+                    &s.route,
+                    std::slice::from_ref(&track),
+                    PlotOptions::default(),
+                )
             })
             .unwrap();
             (img, size)

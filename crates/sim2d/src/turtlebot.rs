@@ -881,9 +881,14 @@ mod figure {
         );
         let mut c = chart(area, &axes)?;
         let disc = RGBColor(90, 90, 100).filled();
-        c.draw_series(e.config.discs.iter().map(|d| Polygon::new(circle(d.center, d.radius), disc)))?
-            .label("obstacles")
-            .legend(box_key(disc));
+        c.draw_series(
+            e.config
+                .discs
+                .iter()
+                .map(|d| Polygon::new(circle(d.center, d.radius), disc)),
+        )?
+        .label("obstacles")
+        .legend(box_key(disc));
         let inflated = RGBColor(160, 160, 170).stroke_width(1);
         c.draw_series(
             e.config
@@ -968,7 +973,10 @@ mod figure {
             .label(format!("{name}, 5 mm bins"))
             .legend(box_key(style));
         }
-        c.draw_series(std::iter::once(PathElement::new(vec![(lo, 0.0), (hi, 0.0)], BLACK.stroke_width(1))))?;
+        c.draw_series(std::iter::once(PathElement::new(
+            vec![(lo, 0.0), (hi, 0.0)],
+            BLACK.stroke_width(1),
+        )))?;
         let zero = BLACK.stroke_width(2);
         c.draw_series(std::iter::once(PathElement::new(vec![(0.0, -peak), (0.0, peak)], zero)))?
             .label("zero clearance")

@@ -361,9 +361,12 @@ fn figure(
             .legend(ddpkit_plot::box_key(grey));
             for idx in [cddp, fixed, safe].into_iter().flatten() {
                 let style = color_of(&methods[idx]).mix(0.6).stroke_width(1);
-                c.draw_series(runs[idx].iter().take(25).map(|e| {
-                    PathElement::new(e.path.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(), style)
-                }))?
+                c.draw_series(
+                    runs[idx]
+                        .iter()
+                        .take(25)
+                        .map(|e| PathElement::new(e.path.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(), style)),
+                )?
                 .label(label_of(&methods[idx]))
                 .legend(line_key(color_of(&methods[idx]).stroke_width(2)));
             }

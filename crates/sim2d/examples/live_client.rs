@@ -22,9 +22,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let stream = loop {
         match TcpStream::connect(("127.0.0.1", port)) {
             Ok(s) => break s,
-            Err(e) if Instant::now() < deadline => {
-                eprintln!("waiting for the server: {e}");
-                std::thread::sleep(Duration::from_millis(200));
+            Err(_) if Instant::now() < deadline => {
+                std::thread::sleep(Duration::from_millis(5));
             }
             Err(e) => return Err(e.into()),
         }

@@ -1,5 +1,5 @@
 //! Run logs through the official Foxglove SDK (the `foxglove` crate): typed messages, protobuf
-//! encoded, with their schemas embedded, in one MCAP file per run (lz4 chunks). Each run has its
+//! encoded, with their schemas embedded, in one MCAP file per run (zstd chunks). Each run has its
 //! own [`foxglove::Context`], so runs in parallel share nothing; the live view
 //! (`crate::live`, feature `live`) mirrors the same messages to a WebSocket server.
 //!
@@ -17,7 +17,8 @@
 //! | `/world` | `foxglove.SceneUpdate`: obstacles, route, route points | `map` | at the start, then every 10 s |
 //! | `/stats` | `cyclestats.CycleStats` ([`CycleStats`], schema derived by the SDK): speeds, compute times, cost, progress (plottable numbers) | | 10 Hz |
 //!
-//! Times are simulated time from 0. The file is written as `<name>.partial` and renamed when the
+//! Times are simulated time from 0. Drawn points (plan, A* path, sub-goals, route) are rounded to
+//! 1/1024 m (about 1 mm) so the log compresses; poses and transforms are exact. The file is written as `<name>.partial` and renamed when the
 //! run ends, so a log is whole or absent: a run that fails, or a write that fails on the way,
 //! removes the partial file.
 
@@ -257,7 +258,7 @@ impl Recorder {
         let handle = ctx
             .mcap_writer_with_options(
                 McapWriteOptions::new()
-                    .compression(Some(McapCompression::Lz4))
+                    .compression(Some(McapCompression::Zstd))
                     .profile("")
                     .library("ddpkit-sim2d"),
             )
@@ -377,6 +378,12 @@ fn entity(t: f64, frame: &str, id: &str) -> SceneEntity {
     }
 }
 
+/// `v` on a grid of 1/1024 m (about 1 mm): the drawn geometry of every plan (51 points at 10 Hz,
+/// most of a log) then has short mantissas that zstd compresses, where full doubles would not.
+fn grid_mm(v: f64) -> f64 {
+    (v * 1024.0).round() / 1024.0
+}
+
 fn line(points: &[[f64; 2]], z: f64, thickness: f64, c: Option<Color>, closed: bool) -> LinePrimitive {
     LinePrimitive {
         r#type: if closed {
@@ -386,7 +393,14 @@ fn line(points: &[[f64; 2]], z: f64, thickness: f64, c: Option<Color>, closed: b
         } as i32,
         pose: pose(0.0, 0.0, 0.0),
         thickness,
-        points: points.iter().map(|p| Point3 { x: p[0], y: p[1], z }).collect(),
+        points: points
+            .iter()
+            .map(|p| Point3 {
+                x: grid_mm(p[0]),
+                y: grid_mm(p[1]),
+                z,
+            })
+            .collect(),
         color: c,
         ..Default::default()
     }
@@ -394,7 +408,7 @@ fn line(points: &[[f64; 2]], z: f64, thickness: f64, c: Option<Color>, closed: b
 
 fn sphere(p: [f64; 2], d: f64, c: Option<Color>) -> SpherePrimitive {
     SpherePrimitive {
-        pose: pose(p[0], p[1], 0.0),
+        pose: pose(grid_mm(p[0]), grid_mm(p[1]), 0.0),
         size: Some(Vector3 { x: d, y: d, z: d }),
         color: c,
     }

@@ -847,11 +847,16 @@ mod figure {
     use crate::error::{Error, Result};
 
     const RED: RGBColor = RGBColor(220, 50, 40);
+    /// The world window of the top view (m).
+    const X: std::ops::Range<f64> = -0.25..1.6;
+    const Y: std::ops::Range<f64> = -0.45..1.15;
     const BLUE: RGBColor = RGBColor(30, 90, 220);
 
     pub(super) fn draw(path: &Path, e: &Experiment) -> Result<()> {
-        ddpkit_plot::write_png(path, (1400, 660), |root| {
-            let (left, right) = root.split_horizontally(640);
+        // The top view at 340 px per metre with equal scales; the histograms beside it.
+        let (w, h) = ddpkit_plot::equal_aspect_size(&X, &Y, 340.0);
+        ddpkit_plot::write_png(path, (w + 760, h), |root| {
+            let (left, right) = root.split_horizontally(w);
             top_view(&left, e)?;
             histograms(&right, e)
         })
@@ -871,13 +876,12 @@ mod figure {
     where
         DB::ErrorType: 'static,
     {
-        // World window x in [-0.25, 1.6], y in [-0.45, 1.15]; the panel keeps the scales equal.
         let axes = Axes::new(
             &format!("(a) driven paths, {} episodes each", e.cddp.len()),
             "x (m)",
             "y (m)",
-            -0.25..1.6,
-            -0.45..1.15,
+            X,
+            Y,
         );
         let mut c = chart(area, &axes)?;
         let disc = RGBColor(90, 90, 100).filled();
@@ -958,7 +962,7 @@ mod figure {
         let axes = Axes::new(
             "(b) minimum clearance per episode (CDDP up, Safe-CDDP down)",
             "minimum clearance (m)",
-            "episodes",
+            "episodes (CDDP > 0, Safe-CDDP < 0)",
             lo..hi,
             -peak..peak,
         );

@@ -47,8 +47,12 @@ def test_every_topic_decodes_and_transforms_chain(tmp_path: pathlib.Path) -> Non
         summary = reader.get_summary()
         assert summary is not None
         channels = {c.topic: c for c in summary.channels.values()}
-        assert set(channels) == set(TOPICS) | {"/stats"}
+        # A channel is written with its first message: DDP + A* guides with an A* path, so the
+        # log has no sub-goals.
+        assert set(channels) == (set(TOPICS) - {"/subgoals"}) | {"/stats"}
         for topic, name in TOPICS.items():
+            if topic == "/subgoals":
+                continue
             assert summary.schemas[channels[topic].schema_id].name == name
             assert summary.schemas[channels[topic].schema_id].encoding == "protobuf"
         for schema, channel, message, decoded in reader.iter_decoded_messages():
@@ -64,9 +68,8 @@ def test_every_topic_decodes_and_transforms_chain(tmp_path: pathlib.Path) -> Non
                 assert decoded.frame_id == "laser" and len(decoded.ranges) > 0
             elif channel.topic == "/stats":
                 assert decoded.speed >= 0.0 and decoded.cycle_ms > 0.0
-    # Every topic decoded (DDP + A* guides with an A* path, so no sub-goals), at the documented
-    # rates: 40 control steps of 0.1 s, a costmap every second.
-    assert counts.pop("/subgoals", 0) == 0
+    # Every topic decoded, at the documented rates: 40 control steps of 0.1 s, a costmap every
+    # second.
     assert set(counts) == (set(TOPICS) - {"/subgoals"}) | {"/stats"}
     assert counts["/tf"] == counts["/robot/pose"] == counts["/stats"] == len(r.t) == 40
     assert counts["/costmap"] == counts["/lidar"] == 4

@@ -17,7 +17,8 @@
 //! | `/world` | `foxglove.SceneUpdate`: obstacles, route, route points | `map` | at the start, then every 10 s |
 //! | `/stats` | `cyclestats.CycleStats` ([`CycleStats`], schema derived by the SDK): speeds, compute times, cost, progress (plottable numbers) | | 10 Hz |
 //!
-//! Times are simulated time from 0. Drawn points (plan, A* path, sub-goals, route) are rounded to
+//! A topic's channel is written with its first message (a `ddp` run has no `/astar`). Times are
+//! simulated time from 0. Drawn points (plan, A* path, sub-goals, route) are rounded to
 //! 1/1024 m (about 1 mm) so the log compresses; poses and transforms are exact. The file is written as `<name>.partial` and renamed when the
 //! run ends, so a log is whole or absent: a run that fails, or a write that fails on the way,
 //! removes the partial file.

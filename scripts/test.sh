@@ -20,6 +20,9 @@ fi
 echo "== cargo test (workspace default members)"
 cargo test --workspace --quiet
 
+echo "== cargo test -p sim2d --features live (the live view's WebSocket test on 127.0.0.1)"
+cargo test -p sim2d --features live --quiet --test live
+
 echo "== build the wheel and install it"
 rm -rf "$CACHE/wheels"
 "$VENV/bin/maturin" build --release -m py/Cargo.toml --out "$CACHE/wheels" --quiet

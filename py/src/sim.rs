@@ -15,8 +15,9 @@ use numpy::ndarray::Array1;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyString};
+use sim2d::log::{LogOptions, Recorder};
 use sim2d::turtlebot::{experiment_json, run_experiment, write_figure, Experiment, TurtlebotConfig, TurtlebotRun};
-use sim2d::{Direction, PlannerKind, RunConfig, RunResult, Scenario};
+use sim2d::{Direction, Observer, PlannerKind, RunConfig, RunResult, Scenario};
 
 use crate::convert::{rows_to_numpy, vec_to_numpy};
 use crate::errors::{invalid, CoreError};
@@ -71,6 +72,9 @@ fn scenario_arg(obj: &Bound<'_, PyAny>) -> PyResult<Scenario> {
 #[pyclass(module = "ddpkit._ddpkit", frozen)]
 pub struct SimResult {
     inner: RunResult,
+    /// The route as driven (reversed for backward runs) and the obstacle outlines, for `plot()`.
+    route: Vec<[f64; 2]>,
+    outlines: Vec<Vec<[f64; 2]>>,
 }
 
 fn column(r: &RunResult, j: usize) -> Vec<f64> {
@@ -219,6 +223,33 @@ impl SimResult {
             .collect::<PyResult<Vec<_>>>()?;
         PyList::new(py, arrays)
     }
+    /// The route as driven (reversed for backward runs), shape ``(R, 2)``.
+    #[getter]
+    fn route<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        rows_to_numpy(py, self.route.len(), 2, self.route.iter().flatten().copied().collect())
+    }
+    /// The obstacles' outlines (cylinders as polygons), a list of ``(K, 2)`` arrays.
+    #[getter]
+    fn obstacles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let arrays = self
+            .outlines
+            .iter()
+            .map(|o| rows_to_numpy(py, o.len(), 2, o.iter().flatten().copied().collect()))
+            .collect::<PyResult<Vec<_>>>()?;
+        PyList::new(py, arrays)
+    }
+    /// Draws the run's top view as the binaries do (see ``ddpkit.sim.plot``; needs matplotlib,
+    /// ``pip install ddpkit[plot]``) on ``ax`` or a new figure, saved to ``path`` when given;
+    /// returns the axes.
+    #[pyo3(signature = (ax = None, path = None))]
+    fn plot<'py>(
+        slf: &Bound<'py, Self>,
+        ax: Option<&Bound<'py, PyAny>>,
+        path: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let module = slf.py().import("ddpkit.sim")?;
+        module.getattr("plot")?.call1((slf, ax, path))
+    }
     /// Every figure of the run (metrics, trajectory, plans, timings) as a JSON string.
     fn to_json(&self) -> PyResult<String> {
         serde_json::to_string(&self.inner).map_err(|e| invalid("result", e.to_string()).into())
@@ -238,7 +269,7 @@ impl SimResult {
 
 /// Runs one scenario (see ``ddpkit.sim.run_scenario``); the GIL is released meanwhile.
 #[pyfunction]
-#[pyo3(signature = (scenario, planner = "ddp", seed = None, direction = "forward", max_time = None, horizon = None))]
+#[pyo3(signature = (scenario, planner = "ddp", seed = None, direction = "forward", max_time = None, horizon = None, log = None))]
 fn sim_run_scenario(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
@@ -247,6 +278,7 @@ fn sim_run_scenario(
     direction: &str,
     max_time: Option<f64>,
     horizon: Option<i64>,
+    log: Option<PathBuf>,
 ) -> PyResult<SimResult> {
     let scenario = scenario_arg(scenario)?;
     let mut config = RunConfig {
@@ -274,10 +306,26 @@ fn sim_run_scenario(
         }
         config.ddp.horizon = n as usize;
     }
+    // The log's file is created before the run: an unwritable path fails here, naming it.
+    let mut recorder = log
+        .map(|p| Recorder::mcap(p, LogOptions::default()))
+        .transpose()
+        .map_err(|e| sim_error(e, "log"))?;
     let inner = py
-        .detach(|| sim2d::run_scenario(&scenario, &config))
+        .detach(|| {
+            let mut observers: Vec<&mut dyn Observer> = Vec::new();
+            if let Some(r) = recorder.as_mut() {
+                observers.push(r);
+            }
+            sim2d::run_scenario_with(&scenario, &config, &mut observers)
+        })
         .map_err(|e| sim_error(e, "scenario"))?;
-    Ok(SimResult { inner })
+    let route = match config.direction {
+        Direction::Forward => scenario.route.points().to_vec(),
+        Direction::Backward => scenario.route.reversed().points().to_vec(),
+    };
+    let outlines = scenario.obstacles.iter().map(|o| o.outline()).collect();
+    Ok(SimResult { inner, route, outlines })
 }
 
 /// CDDP versus Safe-CDDP on the simulated Turtlebot (see ``ddpkit.sim.safe_turtlebot``).

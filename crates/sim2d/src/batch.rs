@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::log::{LogOptions, McapLogger};
+use crate::log::{check_output_dir, LiveLink, LogOptions, Pacer, Recorder};
 use crate::plot::{planner_style, top_view, PlotOptions, Track};
 use crate::run::{run_scenario_with, CycleView, Direction, Observer, RunConfig, RunResult};
 use crate::scenario::Scenario;
@@ -63,6 +63,9 @@ pub struct BatchOptions {
     pub progress: bool,
     /// Worker threads (`None`: one per core).
     pub threads: Option<usize>,
+    /// Mirror every run to a live view (`crate::live`, feature `live`); the runs then go one
+    /// after another, paced at the link's rate.
+    pub live: Option<LiveLink>,
 }
 
 impl Default for BatchOptions {
@@ -74,6 +77,7 @@ impl Default for BatchOptions {
             png: true,
             progress: true,
             threads: None,
+            live: None,
         }
     }
 }
@@ -112,7 +116,25 @@ impl Observer for Progress {
 
 /// Runs `jobs` (in parallel), writing logs and figures as `options` say. Results come back in
 /// the order of `jobs`.
+///
+/// The output folder (and its `logs/`) is checked before the first run: a folder that cannot be
+/// created or written is an error naming it, and no run starts.
 pub fn run_batch(jobs: &[Job], options: &BatchOptions) -> Result<Vec<RunResult>> {
+    options.log.validate()?;
+    if let Some(dir) = &options.out_dir {
+        if options.mcap || options.png {
+            check_output_dir(dir)?;
+        }
+        if options.mcap {
+            check_output_dir(&dir.join("logs"))?;
+        }
+    }
+    // A live view shows one run at a time.
+    let threads = if options.live.is_some() {
+        Some(1)
+    } else {
+        options.threads
+    };
     let total: f64 = jobs.iter().map(|j| j.scenario.route.length()).sum();
     let bar = if options.progress {
         let b = ProgressBar::new(total as u64);
@@ -125,7 +147,7 @@ pub fn run_batch(jobs: &[Job], options: &BatchOptions) -> Result<Vec<RunResult>>
         ProgressBar::hidden()
     };
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(options.threads.unwrap_or(0))
+        .num_threads(threads.unwrap_or(0))
         .build()
         .map_err(|e| Error::invalid("threads", e.to_string()))?;
     let results: Vec<Result<RunResult>> = pool.install(|| {
@@ -136,16 +158,25 @@ pub fn run_batch(jobs: &[Job], options: &BatchOptions) -> Result<Vec<RunResult>>
                     done: 0.0,
                     run: job.run,
                 };
-                let mut logger = match (&options.out_dir, options.mcap) {
-                    (Some(dir), true) => Some(McapLogger::create(
+                let file = match (&options.out_dir, options.mcap) {
+                    (Some(dir), true) => Some(Recorder::mcap(
                         dir.join("logs").join(format!("{}.mcap", job.stem())),
                         options.log,
                     )?),
                     _ => None,
                 };
+                let mut logger = match (file, &options.live) {
+                    (Some(f), Some(live)) => Some(f.with_mirror(live.topics.clone())),
+                    (None, Some(live)) => Some(Recorder::mirror_only(live.topics.clone(), options.log)?),
+                    (f, None) => f,
+                };
+                let mut pacer = options.live.as_ref().map(|l| Pacer::new(l.rate)).transpose()?;
                 let mut observers: Vec<&mut dyn Observer> = vec![&mut progress];
                 if let Some(l) = logger.as_mut() {
                     observers.push(l);
+                }
+                if let Some(p) = pacer.as_mut() {
+                    observers.push(p);
                 }
                 run_scenario_with(&job.scenario, &job.config, &mut observers)
             })
@@ -187,7 +218,8 @@ pub fn write_figures(dir: &Path, jobs: &[Job], results: &[RunResult]) -> Result<
             })
             .collect();
         let path = dir.join(format!("{name}_{}.png", direction.name()));
-        top_view(&path, scenario, &route, &tracks, PlotOptions::default())?;
+        let title = format!("{name}: {} route, {} run(s), top view", direction.name(), tracks.len());
+        top_view(&path, &title, scenario, &route, &tracks, PlotOptions::default())?;
         written.push(path);
     }
     Ok(written)

@@ -3,7 +3,61 @@
 
 use std::path::PathBuf;
 
+use crate::error::Result;
+use crate::log::LiveLink;
 use crate::run::RunConfig;
+
+/// The live view's options, shared by the binaries.
+#[derive(Debug, Clone, clap::Args)]
+pub struct LiveArgs {
+    /// Serve the run's topics live over Foxglove's WebSocket protocol on 127.0.0.1 (runs go one
+    /// at a time, paced by --rate; needs the `live` feature).
+    #[arg(long)]
+    pub live: bool,
+    /// Port of the live view (0: any free port).
+    #[arg(long, default_value_t = 8765)]
+    pub live_port: u16,
+    /// Simulated seconds per wall-clock second with --live (1: real time; 0: as fast as it goes).
+    #[arg(long, default_value_t = 1.0)]
+    pub rate: f64,
+}
+
+/// A started live view (kept alive while the runs go) and the link the batch takes.
+pub struct LiveSession {
+    /// What [`crate::batch::BatchOptions::live`] takes.
+    pub link: LiveLink,
+    /// The port served.
+    pub port: u16,
+    #[cfg(feature = "live")]
+    _view: crate::live::LiveView,
+}
+
+impl LiveArgs {
+    /// Starts the live view when `--live` was given, before any run: a port in use or a bad
+    /// rate is an error naming it. `Ok(None)` without `--live`.
+    pub fn start(&self) -> Result<Option<LiveSession>> {
+        if !self.live {
+            return Ok(None);
+        }
+        crate::error::nonnegative("rate", self.rate)?;
+        #[cfg(feature = "live")]
+        {
+            let view = crate::live::LiveView::start(self.live_port, self.rate)?;
+            Ok(Some(LiveSession {
+                link: view.link(),
+                port: view.port(),
+                _view: view,
+            }))
+        }
+        #[cfg(not(feature = "live"))]
+        {
+            Err(crate::error::Error::invalid(
+                "live",
+                "this build has no live view: build sim2d with `--features live`",
+            ))
+        }
+    }
+}
 
 /// Planner and executor options (each left out keeps [`RunConfig::default`]'s value).
 #[derive(Debug, Clone, Default, clap::Args)]

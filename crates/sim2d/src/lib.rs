@@ -16,8 +16,9 @@
 //! | [`ddpen`] | DDPEN: sub-goal sources (A* oracle, network), the sub-goal cost (eqs. 8-9), map frame |
 //! | [`registry`] | every planner by name ([`PlannerKind`]) |
 //! | [`run`] | the loop, [`RunConfig`], [`RunResult`], observers |
-//! | [`log`] | MCAP logs with Foxglove schemas |
-//! | [`plot`] | PNG top views like the paper's Fig. 5 |
+//! | [`log`] | MCAP logs through the Foxglove SDK (protobuf, transform tree `map` -> `base_link` -> `laser`) |
+//! | `live` | (feature `live`) the same topics served live over Foxglove's WebSocket protocol |
+//! | [`plot`] | PNG top views like the paper's Fig. 5, with axes, legend and title (`ddpkit-plot`) |
 //! | [`table`] | the paper's Table I |
 //! | [`traps`] | seeded random trap maps (U, L, cube clusters, cylinder cups) for `trap-bench` |
 //! | [`batch`] | parallel runs with progress bar, logs and figures (the binaries) |
@@ -35,6 +36,8 @@ pub mod cli;
 pub mod ddpen;
 pub mod error;
 pub mod governor;
+#[cfg(feature = "live")]
+pub mod live;
 pub mod log;
 pub mod perception;
 pub mod planner;

@@ -833,117 +833,121 @@ pub fn write_figure(path: &std::path::Path, e: &Experiment) -> Result<()> {
 mod figure {
     //! The PNG: (a) top view with every driven path (red CDDP, blue Safe-CDDP), the discs (dark
     //! grey) and their inflated outlines (light grey), start (green) and goal (red); (b) the
-    //! histograms of the minimum clearance (red CDDP above the axis, blue Safe-CDDP below it),
-    //! ticks every centimetre, a black line at zero clearance and each controller's mean as a
-    //! vertical line. No text: the figure needs no font.
+    //! histograms of the minimum clearance (red CDDP above the axis, blue Safe-CDDP below it) in
+    //! bins of 5 mm, a black line at zero clearance and each controller's mean as a vertical
+    //! line. Both panels have axes with units, a legend and a title (`ddpkit-plot`).
 
     use std::path::Path;
 
-    use plotters::prelude::*;
+    use ddpkit_plot::plotters::coord::Shift;
+    use ddpkit_plot::plotters::prelude::*;
+    use ddpkit_plot::{box_key, chart, cross_key, disc_key, legend, line_key, Axes, Failure};
 
     use super::{histogram, histogram_range, Experiment};
     use crate::error::{Error, Result};
 
     const RED: RGBColor = RGBColor(220, 50, 40);
+    /// The world window of the top view (m).
+    const X: std::ops::Range<f64> = -0.25..1.6;
+    const Y: std::ops::Range<f64> = -0.45..1.15;
     const BLUE: RGBColor = RGBColor(30, 90, 220);
 
     pub(super) fn draw(path: &Path, e: &Experiment) -> Result<()> {
-        let (w, h) = (1300u32, 620u32);
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|err| Error::write(dir, err))?;
-        }
-        let draw = |tmp: &Path| -> std::result::Result<(), Box<dyn std::error::Error>> {
-            let root = BitMapBackend::new(tmp, (w, h)).into_drawing_area();
-            root.fill(&WHITE)?;
-            let (left, right) = root.split_horizontally(620);
+        // The top view at 340 px per metre with equal scales; the histograms beside it.
+        let (w, h) = ddpkit_plot::equal_aspect_size(&X, &Y, 340.0);
+        ddpkit_plot::write_png(path, (w + 760, h), |root| {
+            let (left, right) = root.split_horizontally(w);
             top_view(&left, e)?;
-            histograms(&right, e)?;
-            root.present()?;
-            Ok(())
-        };
-        // A temporary PNG next to `path`, renamed when complete.
-        ddpkit_util::fs::write_atomic_at(path, draw).map_err(|err| Error::write(path, err))
+            histograms(&right, e)
+        })
+        .map_err(|err| Error::write(path, err))
     }
 
-    fn top_view<DB: DrawingBackend>(
-        area: &DrawingArea<DB, plotters::coord::Shift>,
-        e: &Experiment,
-    ) -> std::result::Result<(), Box<dyn std::error::Error>>
+    fn circle(c: [f64; 2], r: f64) -> Vec<(f64, f64)> {
+        (0..=64)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::TAU / 64.0;
+                (c[0] + r * a.cos(), c[1] + r * a.sin())
+            })
+            .collect()
+    }
+
+    fn top_view<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, e: &Experiment) -> std::result::Result<(), Failure>
     where
         DB::ErrorType: 'static,
     {
-        // World window x in [-0.2, 1.6], y in [-0.45, 1.15]: 320 px per metre.
-        let s = 320.0;
-        let (x0, y1) = (-0.25, 1.15);
-        let px = |p: [f64; 2]| -> (i32, i32) { (((p[0] - x0) * s + 10.0) as i32, ((y1 - p[1]) * s + 30.0) as i32) };
-        // Metre grid every 0.1 m.
-        for k in 0..=18 {
-            let x = -0.2 + 0.1 * k as f64;
-            let c = if k % 5 == 2 { 200 } else { 235 };
-            area.draw(&PathElement::new(
-                vec![px([x, -0.45]), px([x, 1.15])],
-                RGBColor(c, c, c),
-            ))?;
-        }
-        for k in 0..=16 {
-            let y = -0.4 + 0.1 * k as f64;
-            let c = if k % 5 == 4 { 200 } else { 235 };
-            area.draw(&PathElement::new(vec![px([-0.25, y]), px([1.6, y])], RGBColor(c, c, c)))?;
-        }
-        let circle = |c: [f64; 2], r: f64| -> Vec<(i32, i32)> {
-            (0..=64)
-                .map(|k| {
-                    let a = k as f64 * std::f64::consts::TAU / 64.0;
-                    px([c[0] + r * a.cos(), c[1] + r * a.sin()])
-                })
-                .collect()
-        };
-        for d in &e.config.discs {
-            area.draw(&Polygon::new(
-                circle(d.center, d.radius),
-                RGBColor(90, 90, 100).filled(),
-            ))?;
-            area.draw(&PathElement::new(
-                circle(d.center, d.radius + e.config.inflation),
-                RGBColor(160, 160, 170).stroke_width(1),
-            ))?;
-        }
-        for (runs, color) in [(&e.cddp, RED), (&e.safe, BLUE)] {
-            for r in runs.iter() {
-                let pts: Vec<(i32, i32)> = r.poses.iter().map(|p| px([p[0], p[1]])).collect();
-                area.draw(&PathElement::new(pts, color.mix(0.35).stroke_width(1)))?;
-                if r.collisions > 0 {
-                    // Where the closest approach happened: a cross on the pose nearest a disc.
-                    if let Some(p) = r.poses.iter().min_by(|a, b| {
-                        let d = |p: &[f64; 3]| {
-                            e.config
-                                .discs
-                                .iter()
-                                .map(|d| (p[0] - d.center[0]).hypot(p[1] - d.center[1]) - d.radius)
-                                .fold(f64::INFINITY, f64::min)
-                        };
-                        d(a).total_cmp(&d(b))
-                    }) {
-                        area.draw(&Cross::new(px([p[0], p[1]]), 5, color.stroke_width(2)))?;
-                    }
+        let axes = Axes::new(
+            &format!("(a) driven paths, {} episodes each", e.cddp.len()),
+            "x (m)",
+            "y (m)",
+            X,
+            Y,
+        );
+        let mut c = chart(area, &axes)?;
+        let disc = RGBColor(90, 90, 100).filled();
+        c.draw_series(
+            e.config
+                .discs
+                .iter()
+                .map(|d| Polygon::new(circle(d.center, d.radius), disc)),
+        )?
+        .label("obstacles")
+        .legend(box_key(disc));
+        let inflated = RGBColor(160, 160, 170).stroke_width(1);
+        c.draw_series(
+            e.config
+                .discs
+                .iter()
+                .map(|d| PathElement::new(circle(d.center, d.radius + e.config.inflation), inflated)),
+        )?
+        .label("inflated outline")
+        .legend(line_key(inflated));
+        let mut crossed = false;
+        for (runs, color, name) in [(&e.cddp, RED, "CDDP"), (&e.safe, BLUE, "Safe-CDDP")] {
+            let style = color.mix(0.35).stroke_width(1);
+            c.draw_series(
+                runs.iter()
+                    .map(|r| PathElement::new(r.poses.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(), style)),
+            )?
+            .label(name)
+            .legend(line_key(color.stroke_width(2)));
+            for r in runs.iter().filter(|r| r.collisions > 0) {
+                // Where the closest approach happened: a cross on the pose nearest a disc.
+                let d = |p: &[f64; 3]| {
+                    e.config
+                        .discs
+                        .iter()
+                        .map(|d| (p[0] - d.center[0]).hypot(p[1] - d.center[1]) - d.radius)
+                        .fold(f64::INFINITY, f64::min)
+                };
+                if let Some(p) = r.poses.iter().min_by(|a, b| d(a).total_cmp(&d(b))) {
+                    c.draw_series(std::iter::once(Cross::new((p[0], p[1]), 5, color.stroke_width(2))))?;
+                    crossed = true;
                 }
             }
         }
+        if crossed {
+            c.draw_series(std::iter::empty::<Cross<(f64, f64), i32>>())?
+                .label("collision (closest pose)")
+                .legend(cross_key(BLACK.stroke_width(2)));
+        }
         let (s0, g) = (e.config.start, e.config.goal);
-        area.draw(&Circle::new(px([s0[0], s0[1]]), 6, RGBColor(30, 170, 40).filled()))?;
-        area.draw(&Circle::new(px([g[0], g[1]]), 6, RGBColor(220, 30, 30).filled()))?;
-        area.draw(&Circle::new(
-            px([g[0], g[1]]),
-            (e.config.goal_radius * s) as i32,
-            RGBColor(220, 30, 30).stroke_width(1),
-        ))?;
-        Ok(())
+        let green = RGBColor(30, 170, 40).filled();
+        c.draw_series(std::iter::once(Circle::new((s0[0], s0[1]), 6, green)))?
+            .label("start")
+            .legend(disc_key(green, 5));
+        let red = RGBColor(220, 30, 30);
+        c.draw_series(std::iter::once(Circle::new((g[0], g[1]), 6, red.filled())))?
+            .label("goal")
+            .legend(disc_key(red.filled(), 5));
+        c.draw_series(std::iter::once(PathElement::new(
+            circle([g[0], g[1]], e.config.goal_radius),
+            red.stroke_width(1),
+        )))?;
+        legend(&mut c, SeriesLabelPosition::LowerRight)
     }
 
-    fn histograms<DB: DrawingBackend>(
-        area: &DrawingArea<DB, plotters::coord::Shift>,
-        e: &Experiment,
-    ) -> std::result::Result<(), Box<dyn std::error::Error>>
+    fn histograms<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, e: &Experiment) -> std::result::Result<(), Failure>
     where
         DB::ErrorType: 'static,
     {
@@ -954,72 +958,45 @@ mod figure {
             histogram(&clear(&e.cddp), lo, hi, bins),
             histogram(&clear(&e.safe), lo, hi, bins),
         );
-        let peak = hc.iter().chain(&hs).copied().max().unwrap_or(1).max(1) as f64;
-        let (x_left, x_right, y_mid, half) = (30.0, 650.0, 310.0, 260.0);
-        let xpx = |v: f64| (x_left + (v - lo) / (hi - lo) * (x_right - x_left)) as i32;
-        let ypx = |count: f64, up: bool| {
-            let d = count / peak * half;
-            (if up { y_mid - d } else { y_mid + d }) as i32
-        };
-        // Count grid: a line every 5 episodes (fainter every episode when few).
-        let step = if peak > 40.0 { 10 } else { 5 };
-        let mut k = step;
-        while (k as f64) <= peak {
-            for up in [true, false] {
-                let y = ypx(k as f64, up);
-                area.draw(&PathElement::new(
-                    vec![(x_left as i32, y), (x_right as i32, y)],
-                    RGBColor(235, 235, 235),
-                ))?;
-            }
-            k += step;
+        let peak = hc.iter().chain(&hs).copied().max().unwrap_or(1).max(1) as f64 * 1.1;
+        let axes = Axes::new(
+            "(b) minimum clearance per episode (CDDP up, Safe-CDDP down)",
+            "minimum clearance (m)",
+            "episodes (CDDP > 0, Safe-CDDP < 0)",
+            lo..hi,
+            -peak..peak,
+        );
+        let mut c = chart(area, &axes)?;
+        for (counts, color, up, name) in [(&hc, RED, true, "CDDP"), (&hs, BLUE, false, "Safe-CDDP")] {
+            let style = color.mix(0.8).filled();
+            c.draw_series(counts.iter().enumerate().filter(|(_, &n)| n > 0).map(|(i, &n)| {
+                let (a, b) = (lo + i as f64 * 0.005, lo + (i + 1) as f64 * 0.005);
+                let y = if up { n as f64 } else { -(n as f64) };
+                Rectangle::new([(a + 0.0005, 0.0), (b - 0.0005, y)], style)
+            }))?
+            .label(format!("{name}, 5 mm bins"))
+            .legend(box_key(style));
         }
-        for (i, (&c, &s)) in hc.iter().zip(&hs).enumerate() {
-            let (a, b) = (lo + i as f64 * 0.005, lo + (i + 1) as f64 * 0.005);
-            if c > 0 {
-                area.draw(&Rectangle::new(
-                    [(xpx(a) + 1, ypx(c as f64, true)), (xpx(b) - 1, y_mid as i32)],
-                    RED.mix(0.8).filled(),
-                ))?;
-            }
-            if s > 0 {
-                area.draw(&Rectangle::new(
-                    [(xpx(a) + 1, y_mid as i32), (xpx(b) - 1, ypx(s as f64, false))],
-                    BLUE.mix(0.8).filled(),
-                ))?;
-            }
-        }
-        // Axis with a tick every centimetre (longer every 5 cm), the zero-clearance line.
-        area.draw(&PathElement::new(
-            vec![(x_left as i32, y_mid as i32), (x_right as i32, y_mid as i32)],
+        c.draw_series(std::iter::once(PathElement::new(
+            vec![(lo, 0.0), (hi, 0.0)],
             BLACK.stroke_width(1),
-        ))?;
-        let mut cm = (lo * 100.0).round() as i64;
-        while cm as f64 <= hi * 100.0 + 1e-9 {
-            let x = xpx(cm as f64 / 100.0);
-            let len = if cm % 5 == 0 { 10 } else { 5 };
-            area.draw(&PathElement::new(
-                vec![(x, y_mid as i32 - len), (x, y_mid as i32 + len)],
-                BLACK.stroke_width(1),
-            ))?;
-            cm += 1;
-        }
-        let z = xpx(0.0);
-        area.draw(&PathElement::new(
-            vec![(z, (y_mid - half) as i32), (z, (y_mid + half) as i32)],
-            BLACK.stroke_width(2),
-        ))?;
-        for (mean, color, up) in [
-            (e.cddp_summary.min_clearance.mean, RED, true),
-            (e.safe_summary.min_clearance.mean, BLUE, false),
+        )))?;
+        let zero = BLACK.stroke_width(2);
+        c.draw_series(std::iter::once(PathElement::new(vec![(0.0, -peak), (0.0, peak)], zero)))?
+            .label("zero clearance")
+            .legend(line_key(zero));
+        for (mean, color, sign, name) in [
+            (e.cddp_summary.min_clearance.mean, RED, 1.0, "CDDP mean"),
+            (e.safe_summary.min_clearance.mean, BLUE, -1.0, "Safe-CDDP mean"),
         ] {
-            let x = xpx(mean);
-            let y_end = if up { y_mid - half } else { y_mid + half };
-            area.draw(&PathElement::new(
-                vec![(x, y_mid as i32), (x, y_end as i32)],
-                color.stroke_width(2),
-            ))?;
+            let style = color.stroke_width(2);
+            c.draw_series(std::iter::once(PathElement::new(
+                vec![(mean, 0.0), (mean, sign * peak)],
+                style,
+            )))?
+            .label(name)
+            .legend(line_key(style));
         }
-        Ok(())
+        legend(&mut c, SeriesLabelPosition::UpperRight)
     }
 }

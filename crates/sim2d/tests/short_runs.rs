@@ -3,8 +3,9 @@
 
 use std::sync::Arc;
 
+use prost::Message;
 use sim2d::batch::{run_batch, BatchOptions, Job};
-use sim2d::log::{LogOptions, McapLogger};
+use sim2d::log::{LogOptions, Recorder, Topics};
 use sim2d::{run_scenario, run_scenario_with, Direction, Obstacle, Outcome, PlannerKind, Route, RunConfig, Scenario};
 
 fn scenario(obstacles: Vec<Obstacle>) -> Scenario {
@@ -112,33 +113,52 @@ fn mcap_log_is_whole_and_png_is_written() {
     let mut topics = std::collections::BTreeMap::<String, usize>::new();
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
-        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
-        assert!(v.is_object());
+        let schema = m.channel.schema.as_ref().unwrap();
+        // Protobuf with the schema (a FileDescriptorSet) embedded, as Foxglove reads it.
+        assert_eq!(
+            (schema.encoding.as_str(), m.channel.message_encoding.as_str()),
+            ("protobuf", "protobuf")
+        );
+        assert!(!schema.data.is_empty());
+        let d = &m.data[..];
+        use foxglove::messages as fm;
+        match schema.name.as_str() {
+            "foxglove.Grid" => {
+                let g = fm::Grid::decode(d).unwrap();
+                assert_eq!((g.column_count, g.data.len()), (200, 200 * 200));
+            }
+            "foxglove.FrameTransforms" => {
+                let tf = fm::FrameTransforms::decode(d).unwrap();
+                let chain: Vec<(&str, &str)> = tf
+                    .transforms
+                    .iter()
+                    .map(|t| (t.parent_frame_id.as_str(), t.child_frame_id.as_str()))
+                    .collect();
+                assert_eq!(chain, [("map", "base_link"), ("base_link", "laser")]);
+            }
+            "foxglove.LaserScan" => assert!(!fm::LaserScan::decode(d).unwrap().ranges.is_empty()),
+            "foxglove.PoseInFrame" => assert_eq!(fm::PoseInFrame::decode(d).unwrap().frame_id, "map"),
+            "foxglove.SceneUpdate" => assert_eq!(fm::SceneUpdate::decode(d).unwrap().entities.len(), 1),
+            // The SDK's derive names the schema `<lowercase name>.<name>`.
+            "cyclestats.CycleStats" => assert!(!d.is_empty()),
+            other => panic!("unexpected schema {other} on {}", m.channel.topic),
+        }
         *topics.entry(m.channel.topic.clone()).or_default() += 1;
-        if m.channel.topic == "/costmap" {
-            assert_eq!(m.channel.schema.as_ref().unwrap().name, "foxglove.Grid");
-            assert_eq!(v["column_count"], 200);
+    }
+    for t in Topics::NAMES {
+        // `ddp-astar` guides with an A* path, not sub-goals.
+        if t != "/subgoals" {
+            assert!(topics.get(t).copied().unwrap_or(0) > 0, "no {t} in {topics:?}");
         }
     }
-    for t in [
-        "/costmap",
-        "/lidar",
-        "/robot/pose",
-        "/robot/footprint",
-        "/plan",
-        "/goal",
-        "/world",
-    ] {
-        assert!(topics.get(t).copied().unwrap_or(0) > 0, "no {t} in {topics:?}");
-    }
-    assert_eq!(topics["/robot/pose"], 40);
+    assert_eq!((topics["/robot/pose"], topics["/tf"], topics["/stats"]), (40, 40, 40));
     assert!(dir.join("short_forward.png").exists());
     assert!(!dir.join("logs").join(format!("{}.mcap.partial", job.stem())).exists());
 
     // A logger whose run fails leaves nothing behind.
     let half = dir.join("half.mcap");
     {
-        let mut logger = McapLogger::create(&half, LogOptions::default()).unwrap();
+        let mut logger = Recorder::mcap(&half, LogOptions::default()).unwrap();
         let mut obs: [&mut dyn sim2d::Observer; 1] = [&mut logger];
         let bad = RunConfig {
             physics_dt: -1.0,
@@ -184,4 +204,49 @@ fn slower_planning_cycle_executes_the_plan_between_cycles() {
     assert_eq!(r.outcome, Outcome::Completed);
     assert_eq!(r.collisions, 0);
     assert_eq!(r.epoch_ms.len(), 4 * r.trajectory.len().div_ceil(3));
+}
+
+#[test]
+fn bad_output_folder_and_log_options_fail_before_any_run() {
+    let dir = std::env::temp_dir().join(format!("sim2d-bad-out-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let blocker = dir.join("a-file");
+    std::fs::write(&blocker, "not a folder").unwrap();
+    let job = Job {
+        scenario: Arc::new(scenario(vec![])),
+        config: RunConfig {
+            max_time: 1.0,
+            ..RunConfig::default()
+        },
+        run: 0,
+    };
+    let options = BatchOptions {
+        out_dir: Some(blocker.join("out")),
+        progress: false,
+        threads: Some(1),
+        ..BatchOptions::default()
+    };
+    let e = run_batch(std::slice::from_ref(&job), &options).unwrap_err().to_string();
+    assert!(e.starts_with("cannot write") && e.contains("a-file"), "{e}");
+    let options = BatchOptions {
+        out_dir: Some(dir.join("ok")),
+        log: LogOptions { costmap_period: 0.0 },
+        progress: false,
+        ..BatchOptions::default()
+    };
+    let e = run_batch(std::slice::from_ref(&job), &options).unwrap_err().to_string();
+    assert!(e.starts_with("costmap_period"), "{e}");
+    // Nothing was written: no run started.
+    assert!(!dir
+        .join("ok")
+        .join("logs")
+        .join(format!("{}.mcap", job.stem()))
+        .exists());
+    // A log path that cannot be created names it.
+    let e = Recorder::mcap(blocker.join("run.mcap"), LogOptions::default())
+        .err()
+        .expect("a file in the way")
+        .to_string();
+    assert!(e.contains("a-file"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -1551,6 +1551,7 @@ def sim_run_scenario(
     direction: str = "forward",
     max_time: Optional[float] = None,
     horizon: Optional[int] = None,
+    log: Optional[Union[str, os.PathLike[str]]] = None,
 ) -> SimResult:
     """One scenario run (``ddpkit.sim.run_scenario``): ``scenario`` is a TOML file path or the TOML
     text (a ``str`` with a newline or ``=``). Releases the GIL."""
@@ -1634,6 +1635,14 @@ class SimResult:
     @property
     def plans(self) -> list[_F64Array]:
         """The kept plans' positions, a list of ``(K, 2)`` arrays."""
+    @property
+    def route(self) -> _F64Array:
+        """The route as driven (reversed for backward runs), shape ``(R, 2)``."""
+    @property
+    def obstacles(self) -> list[_F64Array]:
+        """The obstacles' outlines (cylinders as polygons), a list of ``(K, 2)`` arrays."""
+    def plot(self, ax: Any = None, path: Any = None) -> Any:
+        """Draws the run's top view as the binaries do (``ddpkit.sim.plot``; needs matplotlib)."""
     def to_json(self) -> str:
         """Every figure of the run (metrics, trajectory, plans, timings) as a JSON string."""
 

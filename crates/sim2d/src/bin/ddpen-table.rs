@@ -63,6 +63,9 @@ struct Args {
     /// Planner and executor options.
     #[command(flatten)]
     planner: sim2d::cli::PlannerArgs,
+    /// Live view.
+    #[command(flatten)]
+    live: sim2d::cli::LiveArgs,
     /// Worker threads [default: one per core].
     #[arg(long)]
     threads: Option<usize>,
@@ -131,6 +134,11 @@ fn run(args: Args) -> sim2d::Result<()> {
         base.ddp.horizon as f64 * base.ddp.dt,
         base.ddp.epochs
     );
+    // Before any run: a port in use fails here.
+    let live = args.live.start()?;
+    if let Some(l) = &live {
+        println!("live view on ws://127.0.0.1:{} (Foxglove: Open connection)", l.port);
+    }
     let options = BatchOptions {
         out_dir: Some(args.out.clone()),
         mcap: !args.no_mcap,
@@ -140,6 +148,7 @@ fn run(args: Args) -> sim2d::Result<()> {
         png: !args.no_png,
         progress: !args.quiet,
         threads: args.threads,
+        live: live.as_ref().map(|l| l.link.clone()),
     };
     let wall = std::time::Instant::now();
     let results = run_batch(&jobs, &options)?;

@@ -63,6 +63,9 @@ struct Args {
     /// Planner and executor options.
     #[command(flatten)]
     planner: sim2d::cli::PlannerArgs,
+    /// Live view.
+    #[command(flatten)]
+    live: sim2d::cli::LiveArgs,
     /// Worker threads [default: one per core].
     #[arg(long)]
     threads: Option<usize>,
@@ -120,6 +123,11 @@ fn run(args: Args) -> sim2d::Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
+    // Before any run: a port in use fails here.
+    let live = args.live.start()?;
+    if let Some(l) = &live {
+        println!("live view on ws://127.0.0.1:{} (Foxglove: Open connection)", l.port);
+    }
     let options = BatchOptions {
         out_dir: Some(out.clone()),
         mcap: !args.no_mcap,
@@ -129,6 +137,7 @@ fn run(args: Args) -> sim2d::Result<()> {
         png: !args.no_png,
         progress: !args.quiet,
         threads: args.threads,
+        live: live.as_ref().map(|l| l.link.clone()),
     };
     println!(
         "{}: {} m route, {} obstacles, {} run(s), horizon N = {} ({:.1} s)",

@@ -55,6 +55,9 @@ struct Args {
     /// Planner and executor options.
     #[command(flatten)]
     planner: sim2d::cli::PlannerArgs,
+    /// Live view.
+    #[command(flatten)]
+    live: sim2d::cli::LiveArgs,
     /// Worker threads [default: one per core].
     #[arg(long)]
     threads: Option<usize>,
@@ -179,12 +182,18 @@ fn run(args: Args) -> sim2d::Result<()> {
         args.stall_time,
         args.seed
     );
+    // Before any run: a port in use fails here.
+    let live = args.live.start()?;
+    if let Some(l) = &live {
+        println!("live view on ws://127.0.0.1:{} (Foxglove: Open connection)", l.port);
+    }
     let options = BatchOptions {
         out_dir: None,
         mcap: false,
         png: false,
         progress: !args.quiet,
         threads: args.threads,
+        live: live.as_ref().map(|l| l.link.clone()),
         ..BatchOptions::default()
     };
     let wall = std::time::Instant::now();

@@ -26,19 +26,24 @@
 //! forward pass (`forward`: per-step QPs, eq. (15)), the warm-up (`warm_up`) and the
 //! tightening (`tighten`, eqs. (19)-(20)); `rows` holds the constraint rows of every knot.
 //!
-//! **Warm-up (design change, [`Settings::al_warm_start`]).** A state constraint can be moved by
-//! one knot's control only a little (`C` is `O(dt^2)` for the point robot and the car), so from a
+//! **Warm-up (design change, [`Settings::warm_up`]).** A state constraint can be moved by one
+//! knot's control only a little (`C` is `O(dt^2)` for the point robot and the car), so from a
 //! far-off guess the per-step QPs turn infeasible and the iterations stall. Each solve therefore
-//! starts with augmented-Lagrangian iterations on the same workspace: the constraint rows enter the
-//! cost at their own time (so `V_x` carries them backwards), control bounds stay in the KKT
-//! working set, the forward pass is a plain rollout (no QPs), and the multipliers are updated
-//! between inexact inner solves (at most [`Settings::al_inner_iterations`] each). Once the
-//! violation is below [`Settings::al_switch_violation`] the iterations above take over with the
-//! multipliers as their first estimate. A tightening that makes the trajectory infeasible, or a
-//! KKT/QP iteration that finds no acceptable step, re-enters the warm-up with the current
-//! multipliers and a moderate penalty; after such a failure the warm-up runs to its own
-//! convergence. Multipliers and penalty carry over between solves ([`SafeCddpSolver::reset`] is
-//! the cold start), and a warm start that is already feasible skips the warm-up.
+//! starts with a warm-up on the same workspace (`warm_up`): augmented-Lagrangian iterations, in
+//! which the constraint rows enter the cost at their own time (so `V_x` carries them backwards),
+//! control bounds stay in the KKT working set, the forward pass is a plain rollout (no QPs), and
+//! the multipliers are updated between inexact inner solves; on a feasible cold start with
+//! [`WarmUp::Barrier`], first a relaxed log-barrier subproblem that keeps the trajectory away from
+//! the obstacles while it finds its way (interior-point style, Pavlov, Shames and Manzie 2021).
+//! Once the violation is below [`Settings::al_switch_violation`] the iterations above take over
+//! with the multipliers as their first estimate. A tightening that makes the trajectory
+//! infeasible, or a KKT/QP iteration that finds no acceptable step, re-enters the
+//! augmented-Lagrangian warm-up with the current multipliers and a moderate penalty; after such a
+//! failure the warm-up runs to its own convergence. Multipliers and penalty carry over between
+//! solves ([`SafeCddpSolver::reset`] is the cold start), and a warm start that is already feasible
+//! skips the warm-up. [`WarmUp::Portfolio`] (the default) solves a feasible cold start with both
+//! warm-ups and keeps the better solution: they often end in different local optima. A solve that
+//! ends on a violating trajectory reports [`Status::Infeasible`] (a point of local infeasibility).
 //!
 //! | symbol | field / accessor | equation |
 //! |---|---|---|
@@ -484,11 +489,18 @@ where
             && self.rows.bound_offset > 0
             && self.stoch.tightening.is_none()
             && self.initial_violation(problem)? <= self.settings.al_switch_violation;
-        if !portfolio {
+        if portfolio {
+            self.solve_portfolio(problem)?;
+        } else {
             self.portfolio.member = None;
             self.solve_from_start(problem)?;
-            return Ok(&self.report);
         }
+        Ok(&self.report)
+    }
+
+    /// [`WarmUp::Portfolio`]: solves from the initial guess with each warm-up in turn and keeps
+    /// the better solution (see [`better`]).
+    fn solve_portfolio(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
         let start = Instant::now();
         let n = self.core.n;
         let p = &mut self.portfolio;
@@ -519,7 +531,7 @@ where
         let discarded_qps = self.portfolio.report.qp;
         self.report.qp += discarded_qps;
         self.report.solve_time = start.elapsed();
-        Ok(&self.report)
+        Ok(())
     }
 
     /// The largest violation of the initial guess (projected onto the bounds, rolled out).
@@ -601,7 +613,7 @@ where
         !self.warm.active && since >= n2
     }
 
-    /// Whether the solver is in its augmented-Lagrangian warm-up ([`Settings::al_warm_start`])
+    /// Whether the solver is in its warm-up ([`Settings::warm_up`]: barrier or augmented Lagrangian)
     /// rather than in the KKT/QP iterations of Xie et al.
     pub fn in_warm_up(&self) -> bool {
         self.warm.active

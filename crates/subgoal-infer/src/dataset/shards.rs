@@ -647,7 +647,16 @@ pub fn parse_manifest(text: &str, dir: &Path) -> Result<Manifest, DatasetError> 
         subgoal_steps: steps,
         shards,
     };
-    let total: u64 = manifest.shards.iter().map(|s| s.samples).sum();
+    let total = manifest
+        .shards
+        .iter()
+        .try_fold(0u64, |t, s| t.checked_add(s.samples))
+        .ok_or_else(|| {
+            fmt(
+                "shards",
+                "the shards' sample counts add up to more than 2^64 - 1".into(),
+            )
+        })?;
     if total != manifest.samples {
         return Err(fmt(
             "shards",

@@ -353,7 +353,7 @@ def test_huge_broadcast_array_is_an_error_naming_the_argument() -> None:
     """A broadcast view of 2^40 elements was copied element by element: an allocation failure
     that aborted the interpreter."""
     huge = np.broadcast_to(np.float64(0.0), (2**40,))
-    with pytest.raises(ddpkit.InvalidInputError, match=r"x0 has shape \(1099511627776,\)") as e:
+    with pytest.raises(ddpkit.InvalidInputError, match=r"x0 is invalid: has shape \(1099511627776,\)") as e:
         ddpkit.Problem(
             x0=huge,
             dynamics=ddpkit.Unicycle(dt=0.1),

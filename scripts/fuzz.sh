@@ -11,6 +11,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RUNS="${RUNS:-1000000}"
+# Optional wall-clock cap per target (seconds); 0: none.
+MAX_TIME="${MAX_TIME:-0}"
 TARGETS=("$@")
 if [ ${#TARGETS[@]} -eq 0 ]; then
     mapfile -t TARGETS < <(ls fuzz/fuzz_targets | sed 's/\.rs$//')
@@ -21,14 +23,14 @@ for t in "${TARGETS[@]}"; do
     log="fuzz/logs/$t.log"
     # -a: debug assertions (integer overflow checks) in the fuzzed code.
     if cargo +nightly fuzz run -a ${FUZZ_TARGET_DIR:+--target-dir "$FUZZ_TARGET_DIR"} "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \
-        -runs="$RUNS" -timeout=1 -rss_limit_mb=2048 -malloc_limit_mb=2048 -max_len=65536 \
+        -runs="$RUNS" -max_total_time="$MAX_TIME" -timeout=1 -rss_limit_mb=2048 -malloc_limit_mb=2048 -max_len=65536 \
         -print_final_stats=1 > "$log" 2>&1; then
         status=clean
     else
         status="FAILED (see $log and fuzz/artifacts/$t)"
     fi
-    runs=$(grep -o 'stat::number_of_executed_units: [0-9]*' "$log" | awk '{print $2}' | tail -1)
-    rate=$(grep -o 'stat::average_exec_per_sec: [0-9]*' "$log" | awk '{print $2}' | tail -1)
+    runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | awk '{print $2}' | tail -1)
+    rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | awk '{print $2}' | tail -1)
     secs=$(grep -o 'Done [0-9]* runs in [0-9]* second' "$log" | awk '{print $5}' | tail -1)
     echo "$t: ${runs:-?} inputs, ${rate:-?} inputs/s, ${secs:-?} s, $status"
 done

@@ -73,6 +73,9 @@ impl Arr {
     }
 }
 
+/// Most elements an array argument may hold (2^28 float64 values, 2 GiB).
+pub const MAX_ELEMENTS: usize = 1 << 28;
+
 static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
 
 /// Copies `obj` into an [`Arr`] through `numpy.asarray(obj, dtype=float64)`.
@@ -96,6 +99,19 @@ pub fn to_arr(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Arr> {
     let array = converted.cast::<PyArrayDyn<f64>>()?;
     let view = array.readonly();
     let view = view.as_array();
+    // A broadcast view (`numpy.broadcast_to`) is float64 without memory behind it: check its
+    // size before copying it, so that a huge one is an error rather than an allocation failure.
+    if view.len() > MAX_ELEMENTS {
+        return Err(invalid(
+            field,
+            format!(
+                "has shape {} ({} elements), more than the {MAX_ELEMENTS} an argument may hold",
+                shape_str(view.shape()),
+                view.len()
+            ),
+        )
+        .into());
+    }
     Ok(Arr {
         shape: view.shape().to_vec(),
         data: view.iter().copied().collect(),

@@ -35,6 +35,10 @@ use crate::error::{nonnegative, positive, Error, Result};
 use crate::quadtree::QuadGrid;
 use crate::scene::Scene;
 
+/// Most lattice points of the step grid per axis (`steps_per_axis^2` steps are tried per grid
+/// point and stage).
+pub const MAX_STEPS_PER_AXIS: usize = 1001;
+
 /// Settings of the DP block.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct DpSettings {
@@ -93,6 +97,12 @@ impl DpSettings {
     pub fn validate(&self) -> Result<()> {
         if self.stages == 0 {
             return Err(Error::invalid("dp.stages", "must be at least 1"));
+        }
+        if self.steps_per_axis > MAX_STEPS_PER_AXIS {
+            return Err(Error::invalid(
+                "dp.steps_per_axis",
+                format!("must be at most {MAX_STEPS_PER_AXIS}, got {}", self.steps_per_axis),
+            ));
         }
         if self.steps_per_axis == 0 || self.steps_per_axis % 2 == 0 {
             return Err(Error::invalid(

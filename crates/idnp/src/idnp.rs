@@ -71,6 +71,12 @@ impl Variant {
     }
 }
 
+/// Most DP stages `T`.
+pub const MAX_STAGES: usize = 10_000;
+
+/// Most cells of the `T + 1` initial grids together.
+pub const MAX_TOTAL_CELLS: usize = 1 << 22;
+
 /// Settings of the loop and its blocks.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct IdnpSettings {
@@ -135,6 +141,23 @@ impl IdnpSettings {
                     crate::quadtree::MAX_LEVEL,
                     self.initial_level,
                     self.max_level
+                ),
+            ));
+        }
+        // What `Idnp::new` allocates (`stages + 1` uniform grids), bounded before allocating.
+        let cells = crate::quadtree::uniform_cells(&scene.domain, self.initial_level, "initial_level")?;
+        if self.dp.stages > MAX_STAGES {
+            return Err(Error::invalid(
+                "dp.stages",
+                format!("must be at most {MAX_STAGES}, got {}", self.dp.stages),
+            ));
+        }
+        if cells * (self.dp.stages + 1) > MAX_TOTAL_CELLS {
+            return Err(Error::invalid(
+                "dp.stages",
+                format!(
+                    "{} grids of {cells} cells each are more than the {MAX_TOTAL_CELLS} cells allowed",
+                    self.dp.stages + 1
                 ),
             ));
         }

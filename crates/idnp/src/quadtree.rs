@@ -33,6 +33,49 @@ use crate::scene::Domain;
 /// Deepest level a grid can reach (`2^MAX_LEVEL` finest cells per root cell side).
 pub const MAX_LEVEL: u8 = 20;
 
+/// Most root cells a domain may have (`cells[0] * cells[1]`): a bound checked before anything
+/// is allocated, so that a mistyped domain is an error instead of an allocation failure.
+pub const MAX_ROOT_CELLS: usize = 1 << 16;
+
+/// Most cells a grid may start with (root cells times `4^level` for a uniform grid).
+pub const MAX_INITIAL_CELLS: usize = 1 << 20;
+
+/// Root cells of `domain`, or an error naming `domain.cells` when there are none or more than
+/// [`MAX_ROOT_CELLS`].
+pub fn root_cells(domain: &Domain) -> Result<usize> {
+    if domain.cells[0] == 0 || domain.cells[1] == 0 {
+        return Err(Error::invalid(
+            "domain.cells",
+            "needs at least one cell in each direction",
+        ));
+    }
+    match domain.cells[0].checked_mul(domain.cells[1]) {
+        Some(n) if n <= MAX_ROOT_CELLS => Ok(n),
+        _ => Err(Error::invalid(
+            "domain.cells",
+            format!(
+                "{} x {} root cells, more than the {MAX_ROOT_CELLS} allowed",
+                domain.cells[0], domain.cells[1]
+            ),
+        )),
+    }
+}
+
+/// Cells of a uniform grid of `level` on `domain`, or an error naming `field` when there would
+/// be more than [`MAX_INITIAL_CELLS`].
+pub fn uniform_cells(domain: &Domain, level: u8, field: &str) -> Result<usize> {
+    let roots = root_cells(domain)?;
+    match 4usize.checked_pow(level.into()).and_then(|f| f.checked_mul(roots)) {
+        Some(n) if n <= MAX_INITIAL_CELLS => Ok(n),
+        _ => Err(Error::invalid(
+            field,
+            format!(
+                "a uniform grid of level {level} on {roots} root cells has 4^{level} x {roots} cells, more than the {MAX_INITIAL_CELLS} allowed"
+            ),
+        )),
+    }
+}
+
 /// Index of a cell in its [`QuadGrid`] (stable across splits).
 pub type CellId = usize;
 
@@ -100,17 +143,12 @@ impl QuadGrid {
                 format!("must be at most {MAX_LEVEL}, got {max_level}"),
             ));
         }
-        if domain.cells[0] == 0 || domain.cells[1] == 0 {
-            return Err(Error::invalid(
-                "domain.cells",
-                "needs at least one cell in each direction",
-            ));
-        }
+        let roots = root_cells(&domain)?;
         if !(domain.cell_size.is_finite() && domain.cell_size > 0.0) {
             return Err(Error::invalid("domain.cell_size", "must be finite and > 0"));
         }
         let unit = 1u64 << MAX_LEVEL;
-        let mut nodes = Vec::with_capacity(domain.cells[0] * domain.cells[1]);
+        let mut nodes = Vec::with_capacity(roots);
         for j in 0..domain.cells[1] {
             for i in 0..domain.cells[0] {
                 nodes.push(Node {
@@ -142,6 +180,7 @@ impl QuadGrid {
                 format!("must be at most max_level = {max_level}, got {level}"),
             ));
         }
+        uniform_cells(&domain, level, "level")?;
         let mut grid = Self::new(domain, max_level)?;
         for _ in 0..level {
             let leaves = grid.leaves.clone();

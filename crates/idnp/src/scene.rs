@@ -56,6 +56,12 @@ impl Obstacle {
                 format!("a polygon needs at least 3 vertices, got {}", vertices.len()),
             ));
         }
+        if !spans_area(vertices) {
+            return Err(Error::invalid(
+                "vertices",
+                "degenerate polygon (collinear or repeated vertices)",
+            ));
+        }
         let pts: Vec<PVec> = vertices.iter().map(|v| PVec::new(v[0], v[1])).collect();
         let shape = ConvexPolygon::from_convex_hull(&pts)
             .ok_or_else(|| Error::invalid("vertices", "degenerate polygon (collinear or repeated vertices)"))?;
@@ -96,6 +102,35 @@ impl Obstacle {
             d
         }
     }
+}
+
+/// Whether finite `points` span a triangle of positive area. parry's hull asserts (panics) when
+/// every point is the same, so coincident and collinear sets are rejected before it is called.
+fn spans_area(points: &[[f64; 2]]) -> bool {
+    let Some(&a) = points.first() else {
+        return false;
+    };
+    let d = |p: &[f64; 2]| [p[0] - a[0], p[1] - a[1]];
+    // The point farthest from the first, then the largest area of a triangle with both.
+    let Some(b) = points
+        .iter()
+        .map(d)
+        .max_by(|u, v| u[0].hypot(u[1]).total_cmp(&v[0].hypot(v[1])))
+    else {
+        return false;
+    };
+    let len = b[0].hypot(b[1]);
+    if !(len > 0.0 && len.is_finite()) {
+        return false;
+    }
+    let height = points
+        .iter()
+        .map(|p| {
+            let u = d(p);
+            (b[0] * u[1] - b[1] * u[0]).abs() / len
+        })
+        .fold(0.0, f64::max);
+    height > 1e-12 * len
 }
 
 /// The goal region of the TCP: a ball.
@@ -260,6 +295,19 @@ impl Scene {
                         format!("must be finite with lower < upper, got {lim:?}"),
                     ));
                 }
+            }
+        }
+        crate::quadtree::root_cells(&self.domain)?;
+        let max = self.domain.max();
+        for i in 0..2 {
+            if !max[i].is_finite() {
+                return Err(Error::invalid(
+                    format!("domain.cells[{i}]"),
+                    format!(
+                        "the domain's upper corner min + cells * cell_size overflows ({} + {} * {})",
+                        self.domain.min[i], self.domain.cells[i], self.domain.cell_size
+                    ),
+                ));
             }
         }
         if self.obstacles.is_empty() {

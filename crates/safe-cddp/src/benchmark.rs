@@ -22,6 +22,9 @@ use serde::Deserialize;
 use crate::constraints::Circle;
 use crate::{Constraint, Constraints};
 
+/// Longest horizon `N` a problem file may ask for (the benchmark problems use 100 to 120).
+pub const MAX_HORIZON: usize = 100_000;
+
 /// The cost of a benchmark problem.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
@@ -96,6 +99,13 @@ impl BenchmarkProblem {
         }
         if p.horizon == 0 {
             return Err(Error::EmptyHorizon);
+        }
+        // Checked before `Problem::new` allocates a knot per step.
+        if p.horizon > MAX_HORIZON {
+            return Err(Error::invalid(
+                "N",
+                format!("must be at most {MAX_HORIZON}, got {}", p.horizon),
+            ));
         }
         for (k, o) in p.obstacles.iter().enumerate() {
             ddp_core::error::check_finite(&format!("obstacles[{k}]"), o.iter())?;

@@ -71,8 +71,8 @@ use crate::grid::{AStar, AStarParams, Costmap, DistanceField, GridGeometry, Infl
 use shapes::{Kind, Obstacle, Placement};
 
 pub use shards::{
-    read_manifest, write_dataset, DatasetError, DatasetSummary, Manifest, Shard, ShardEntry, WriteOptions, FORMAT_NAME,
-    FORMAT_VERSION,
+    parse_manifest, read_manifest, write_dataset, DatasetError, DatasetSummary, Manifest, Shard, ShardEntry,
+    WriteOptions, FORMAT_NAME, FORMAT_VERSION,
 };
 
 /// Cells along each side of a dataset costmap.

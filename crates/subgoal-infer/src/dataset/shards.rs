@@ -587,12 +587,19 @@ impl Shard {
 pub fn read_manifest(dir: &Path) -> Result<Manifest, DatasetError> {
     let path = dir.join(MANIFEST);
     let text = std::fs::read_to_string(&path).map_err(|e| io_err("dir", &path, e))?;
+    parse_manifest(&text, dir)
+}
+
+/// Parses the text of `dir/manifest.json` (`dir` is where the shards are; the manifest's path
+/// names the source in errors). Errors name the entry at fault.
+pub fn parse_manifest(text: &str, dir: &Path) -> Result<Manifest, DatasetError> {
+    let path = dir.join(MANIFEST);
     let fmt = |field: &str, reason: String| DatasetError::Format {
         path: path.clone(),
         field: field.into(),
         reason,
     };
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| fmt("manifest", e.to_string()))?;
+    let v: serde_json::Value = serde_json::from_str(text).map_err(|e| fmt("manifest", e.to_string()))?;
     if v["format"] != FORMAT_NAME {
         return Err(fmt("format", format!("expected {FORMAT_NAME}, got {}", v["format"])));
     }
@@ -640,7 +647,16 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest, DatasetError> {
         subgoal_steps: steps,
         shards,
     };
-    let total: u64 = manifest.shards.iter().map(|s| s.samples).sum();
+    let total = manifest
+        .shards
+        .iter()
+        .try_fold(0u64, |t, s| t.checked_add(s.samples))
+        .ok_or_else(|| {
+            fmt(
+                "shards",
+                "the shards' sample counts add up to more than 2^64 - 1".into(),
+            )
+        })?;
     if total != manifest.samples {
         return Err(fmt(
             "shards",

@@ -53,6 +53,7 @@ pub fn planner_style(planner: &str) -> ((u8, u8, u8), bool) {
     match planner {
         "ddp" => ((220, 90, 20), true),
         "ddp-astar" => ((30, 90, 220), false),
+        "ddpen-oracle" => ((0, 150, 140), false),
         _ => ((120, 40, 160), false),
     }
 }
@@ -92,8 +93,27 @@ pub fn top_view(
     .map_err(|e| Error::write(path, e))
 }
 
+impl PlotOptions {
+    /// Shortest side, in pixels, of the plotting area of a top view: a small scene (a 20 m trap
+    /// map) is drawn larger than `px_per_m` so that the legend and the labels, whose size is
+    /// fixed in pixels, leave the scene visible.
+    pub const MIN_SIDE_PX: f64 = 640.0;
+
+    /// These options with `px_per_m` raised where the scene would draw smaller than
+    /// [`PlotOptions::MIN_SIDE_PX`].
+    pub fn fitted(self, scenario: &Scenario) -> Self {
+        let b = scenario.bounds();
+        let side = (b[2] - b[0]).min(b[3] - b[1]) + 2.0 * self.margin;
+        Self {
+            px_per_m: self.px_per_m.max(Self::MIN_SIDE_PX / side.max(1e-9)),
+            ..self
+        }
+    }
+}
+
 /// The axes (metres, equal scale) and the figure size of a top view.
 pub fn top_view_axes(title: &str, scenario: &Scenario, options: PlotOptions) -> (Axes, (u32, u32)) {
+    let options = options.fitted(scenario);
     let b = scenario.bounds();
     let m = options.margin;
     let (x, y) = (b[0] - m..b[2] + m, b[1] - m..b[3] + m);
@@ -113,7 +133,7 @@ pub fn draw_top_view<DB: DrawingBackend>(
 where
     DB::ErrorType: 'static,
 {
-    let s = options.px_per_m;
+    let s = options.fitted(scenario).px_per_m;
     let mut c = chart(root, axes)?;
     let xy = |p: &[f64; 2]| (p[0], p[1]);
     // Route and route points.

@@ -105,6 +105,7 @@ def safe_turtlebot(
 _PLANNER_STYLE = {
     "ddp": ((220, 90, 20), "--"),
     "ddp-astar": ((30, 90, 220), "-"),
+    "ddpen-oracle": ((0, 150, 140), "-"),
 }
 
 

@@ -81,6 +81,13 @@ fn main() {
     let dir = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "fuzz/seeds".into()));
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
 
+    // Tape models traced in Python (`bench/own_robot/make_fixtures.py`): dynamics, costs.
+    for e in fs::read_dir(root.join("crates/tape/tests/data")).expect("crates/tape/tests/data/") {
+        let p = e.expect("entry").path();
+        let name = p.file_name().expect("a file").to_string_lossy().to_string();
+        write(&dir, "tape_model", &name, &fs::read(&p).expect("read"));
+    }
+
     // Scenario files: the shipped ones and one with every obstacle type.
     for e in fs::read_dir(root.join("scenarios")).expect("scenarios/") {
         let p = e.expect("entry").path();

@@ -21,6 +21,7 @@
 //! | `dataset_shard` | `subgoal_infer::dataset::Shard::from_bytes` | a sub-goal dataset shard (safetensors) |
 //! | `dataset_manifest` | `subgoal_infer::dataset::parse_manifest` | a dataset's `manifest.json` |
 //! | `idnp_scene` | `idnp::idnp::Idnp::new` (scene, settings, initial state) | typed values decoded from the bytes ([`bytes::Bytes`]) |
+//! | `tape_model` | `ddp_tape::TapeModel::from_json` | a model traced in Python and saved (`model.save`), the `ddpkit-tape` JSON format |
 
 pub mod bytes;
 
@@ -69,6 +70,10 @@ pub const TARGETS: &[Target] = &[
     Target {
         name: "idnp_scene",
         run: idnp_scene,
+    },
+    Target {
+        name: "tape_model",
+        run: tape_model,
     },
 ];
 
@@ -280,6 +285,31 @@ pub fn dataset_manifest(data: &[u8]) -> bool {
             std::hint::black_box(e.field());
             show(e)
         }
+    }
+}
+
+/// A saved tape model (dynamics, cost, terminal cost or constraint traced in Python): load it,
+/// then evaluate the tape with first derivatives and the second-order sweep at a fixed point.
+pub fn tape_model(data: &[u8]) -> bool {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return false;
+    };
+    match ddp_tape::TapeModel::from_json(text) {
+        Ok(model) => {
+            let tape = model.tape();
+            let z: Vec<f64> = (0..tape.n_inputs()).map(|i| 0.1 * i as f64 - 0.3).collect();
+            let mut ws = ddp_tape::Workspace::default();
+            let mut out = vec![0.0; tape.n_outputs()];
+            tape.values(&z, &mut ws, &mut out);
+            tape.forward(&z, &mut ws, true);
+            let lambda = vec![1.0; tape.n_outputs()];
+            tape.second_order(&lambda, &mut ws, |k, g, h| {
+                std::hint::black_box((k, g, h.len()));
+            });
+            std::hint::black_box((model.kind(), &out));
+            true
+        }
+        Err(e) => show(e),
     }
 }
 

@@ -190,7 +190,8 @@ fn every_target_has_a_smoke_test() {
             "subgoal_model_config_json",
             "dataset_shard",
             "dataset_manifest",
-            "idnp_scene"
+            "idnp_scene",
+            "tape_model"
         ]
     );
     for n in names {
@@ -205,6 +206,11 @@ fn every_target_has_a_smoke_test() {
             "fuzz/fuzz_targets/{n}.rs runs another function"
         );
     }
+}
+
+#[test]
+fn tape_model() {
+    smoke("tape_model");
 }
 
 #[test]

@@ -288,7 +288,7 @@ def test_every_class_with_methods_has_a_valid_instance() -> None:
         "Cost",
         "Constraint",
         # Built by Dynamics/Cost/Constraint.from_function, from_casadi and from_callable; their
-        # methods are fuzzed by test_traced_and_callable_models_survive_garbage.
+        # own methods are not fuzzed yet (a first attempt ran past minutes: to be bounded).
         "TapeDynamics",
         "TapeCost",
         "TapeConstraint",
@@ -307,32 +307,6 @@ def test_method_survives_garbage(name: str, method: str, data: st.DataObject) ->
     obj = getattr(ext, name)(**_valid_kwargs(name))
     f = getattr(obj, method)
     _call(f, _draw_kwargs(data, _parameters(f), {}))
-
-
-def _traced_and_callable_models() -> list[Any]:
-    return [
-        ddpkit.Dynamics.from_function(lambda x, u: np.array([x[0] + 0.1 * x[1], x[1] + 0.1 * u[0]]), nx=2, nu=1),
-        ddpkit.Cost.from_function(lambda x, u: x[0] ** 2 + 0.1 * u[0] ** 2, nx=2, nu=1),
-        ddpkit.Cost.from_function(lambda x: 10.0 * x[0] ** 2, nx=2),
-        ddpkit.Constraint.from_function(lambda x: np.array([x[0] - 1.0]), nx=2),
-        ddpkit.Dynamics.from_callable(lambda x, u: np.array([x[0] + 0.1 * x[1], x[1] + 0.1 * u[0]]), nx=2, nu=1),
-        ddpkit.Cost.from_callable(lambda x, u: float(x @ x + u @ u), nx=2, nu=1),
-        ddpkit.Constraint.from_callable(lambda x, u: np.array([x[0] - 1.0]), nx=2, nu=1),
-    ]
-
-
-@FUZZ
-@given(data=st.data())
-def test_traced_and_callable_models_survive_garbage(data: st.DataObject) -> None:
-    """Methods of the models the factories build. `save` (it writes where it is told) and the
-    factories themselves (fuzzed on the base classes) are left out."""
-    for obj in _traced_and_callable_models():
-        for attr in sorted(dir(obj)):
-            if attr.startswith("_") or attr == "save" or attr.startswith("from_"):
-                continue
-            f = getattr(obj, attr)
-            if callable(f):
-                _call(f, _draw_kwargs(data, _parameters(f), {}))
 
 
 @pytest.mark.parametrize("name", [n for n, _ in _public_functions()])

@@ -205,7 +205,7 @@ impl Problem {
         dynamics: &Bound<'_, PyAny>,
         running_cost: &Bound<'_, PyAny>,
         terminal_cost: &Bound<'_, PyAny>,
-        horizon: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] horizon: i64,
         u_min: Option<&Bound<'_, PyAny>>,
         u_max: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {

@@ -286,7 +286,12 @@ impl Constraint {
     /// (imposed on `x_1 .. x_N`, like the obstacles).
     #[staticmethod]
     #[pyo3(signature = (g, nx, nu = None))]
-    fn from_function(py: Python<'_>, g: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
+    fn from_function(
+        py: Python<'_>,
+        g: &Bound<'_, PyAny>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nx: i64,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] nu: Option<i64>,
+    ) -> PyResult<Py<PyAny>> {
         crate::tape::constraint_from_function(py, g, nx, nu)
     }
 
@@ -296,7 +301,13 @@ impl Constraint {
     /// solve is raised by the solve.
     #[staticmethod]
     #[pyo3(signature = (g, nx, nu = None, rows = 1))]
-    fn from_callable(py: Python<'_>, g: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>, rows: i64) -> PyResult<Py<PyAny>> {
+    fn from_callable(
+        py: Python<'_>,
+        g: &Bound<'_, PyAny>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nx: i64,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] nu: Option<i64>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] rows: i64,
+    ) -> PyResult<Py<PyAny>> {
         crate::callable::constraint_from_callable(py, g, nx, nu, rows)
     }
 
@@ -604,7 +615,7 @@ impl Tightening {
         beta: f64,
         sigma_w: &Bound<'_, PyAny>,
         gains: Option<&Bound<'_, PyAny>>,
-        update_every: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] update_every: i64,
         sigma_0: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let sigma_w = finite_arr(sigma_w, "sigma_w")?;
@@ -1064,7 +1075,7 @@ impl SafeCddpSolver {
         constraints: &Bound<'_, PyAny>,
         tightening: Option<Bound<'_, Tightening>>,
         method: &str,
-        max_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
         constraint_tolerance: f64,
         qp_method: &str,
         warm_up: &str,
@@ -1161,7 +1172,7 @@ impl SafeCddpSolver {
     }
 
     /// Shortens (or restores) the active horizon ``1 <= n <= N`` (shrinking-horizon MPC).
-    fn set_horizon(&mut self, n: i64) -> PyResult<()> {
+    fn set_horizon(&mut self, #[pyo3(from_py_with = crate::convert::int_i64)] n: i64) -> PyResult<()> {
         let n = usize::try_from(n).map_err(|_| invalid("horizon", format!("must be at least 1, got {n}")))?;
         with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Horizon(n)))?;
         Ok(())
@@ -1484,10 +1495,10 @@ impl Mpc {
         tightening: Option<Bound<'_, Tightening>>,
         goal_indices: Vec<i64>,
         goal_radius: f64,
-        iterations: i64,
-        initial_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] initial_iterations: i64,
         position_indices: (i64, i64),
-        max_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
         let d = Settings::default();
@@ -1534,7 +1545,11 @@ impl Mpc {
 
     /// Runs one episode from the problem's ``x0`` with the noise of ``seed`` (deterministic for
     /// a seed); the GIL is released meanwhile.
-    fn run_episode(&mut self, py: Python<'_>, seed: u64) -> PyResult<Episode> {
+    fn run_episode(
+        &mut self,
+        py: Python<'_>,
+        #[pyo3(from_py_with = crate::convert::int_u64)] seed: u64,
+    ) -> PyResult<Episode> {
         let (nx, nu) = (self.nx, self.nu);
         let inner = &mut self.inner;
         let e = py.detach(|| -> CoreResult<EpisodeOut> { with_dims!(nx, nu, run_mpc(inner, seed)) });

@@ -300,7 +300,7 @@ impl Solver {
     fn new(
         problem: Bound<'_, Problem>,
         method: &str,
-        max_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
         gradient_tolerance: f64,
         cost_tolerance: f64,
         mu_init: f64,
@@ -311,7 +311,7 @@ impl Solver {
         step_factor: f64,
         step_min: f64,
         armijo: f64,
-        box_qp_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] box_qp_iterations: i64,
     ) -> PyResult<Self> {
         let placement = match regularization.to_ascii_lowercase().as_str() {
             "control" => Regularization::Control,

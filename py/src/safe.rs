@@ -526,6 +526,11 @@ fn box_args(lower: &Bound<'_, PyAny>, upper: &Bound<'_, PyAny>) -> PyResult<(Vec
 }
 
 fn extract_constraints(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Arc<Spec>>> {
+    extract_constraints_at(obj, "constraints")
+}
+
+/// [`extract_constraints`] with errors naming `{field}[i]`.
+fn extract_constraints_at(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Vec<Arc<Spec>>> {
     let mut out = Vec::new();
     for (i, item) in obj.try_iter()?.enumerate() {
         let item = item?;
@@ -533,7 +538,7 @@ fn extract_constraints(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Arc<Spec>>> {
             Ok(c) => out.push(c.get().spec.clone()),
             Err(_) => {
                 return Err(invalid(
-                    format!("constraints[{i}]"),
+                    format!("{field}[{i}]"),
                     format!(
                         "must be a ddpkit constraint (e.g. ddpkit.Circle), got {}",
                         type_name(&item)
@@ -1614,30 +1619,42 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// The constraints of a batch: one list for every problem, or one list per problem (a sequence
 /// of lists or tuples as long as `problems`); errors name `constraints` or `constraints[i]`.
 fn batch_constraints(obj: &Bound<'_, PyAny>, count: usize) -> PyResult<Vec<Vec<Arc<Spec>>>> {
-    let items: Vec<Bound<'_, PyAny>> = obj.try_iter()?.collect::<PyResult<_>>()?;
     let nested = |o: &Bound<'_, PyAny>| o.is_instance_of::<pyo3::types::PyList>() || o.is_instance_of::<PyTuple>();
-    if items.is_empty() || !items.iter().all(nested) {
+    // Lazily: a huge iterable is rejected at its first wrong item, never collected.
+    let mut iter = obj.try_iter()?;
+    let first = match iter.next() {
+        None => return Ok(vec![Vec::new()]),
+        Some(first) => first?,
+    };
+    if !nested(&first) {
         return Ok(vec![extract_constraints(obj)?]);
     }
-    if items.len() != count {
-        return Err(crate::errors::shape(
+    let wrong_count = |got: String| {
+        crate::errors::shape(
             "constraints",
-            format!("{} lists", items.len()),
+            got,
             format!("{count} lists (one per problem) or one list of constraints for all"),
         )
-        .into());
+    };
+    let mut out = vec![extract_constraints_at(&first, "constraints[0]")?];
+    for (i, item) in iter.enumerate() {
+        let (i, item) = (i + 1, item?);
+        if i >= count {
+            return Err(wrong_count(format!("more than {count} lists")).into());
+        }
+        if !nested(&item) {
+            return Err(invalid(
+                format!("constraints[{i}]"),
+                format!("must be a list of constraints (like constraints[0]), got {}", type_name(&item)),
+            )
+            .into());
+        }
+        out.push(extract_constraints_at(&item, &format!("constraints[{i}]"))?);
     }
-    items
-        .iter()
-        .enumerate()
-        .map(|(i, l)| {
-            extract_constraints(l).map_err(|e| {
-                let py = obj.py();
-                let msg = e.value(py).to_string().replacen("constraints[", &format!("constraints[{i}]["), 1);
-                invalid(format!("constraints[{i}]"), msg).into()
-            })
-        })
-        .collect()
+    if out.len() != count {
+        return Err(wrong_count(format!("{} lists", out.len())).into());
+    }
+    Ok(out)
 }
 
 /// Every problem of a Safe-CDDP batch, each with a fresh workspace, as `SafeCddpSolver.solve()`.

@@ -25,7 +25,12 @@ pub(crate) struct Problems {
 /// Checks `problems`: an iterable (not a string) of `ddpkit.Problem`, at least one, all with the
 /// sizes and horizon of the first; errors name `problems` or `problems[i]`.
 pub(crate) fn problems_of(problems: &Bound<'_, PyAny>) -> PyResult<Problems> {
-    let not_a_list = || invalid("problems", format!("must be a list of ddpkit.Problem, got {}", type_name(problems)));
+    let not_a_list = || {
+        invalid(
+            "problems",
+            format!("must be a list of ddpkit.Problem, got {}", type_name(problems)),
+        )
+    };
     if problems.is_instance_of::<pyo3::types::PyString>() || problems.is_instance_of::<pyo3::types::PyBytes>() {
         return Err(not_a_list().into());
     }
@@ -58,12 +63,7 @@ pub(crate) fn problems_of(problems: &Bound<'_, PyAny>) -> PyResult<Problems> {
         }
     }
     let locks = items.iter().map(|p| p.get().inner.clone()).collect();
-    Ok(Problems {
-        locks,
-        nx,
-        nu,
-        horizon,
-    })
+    Ok(Problems { locks, nx, nu, horizon })
 }
 
 /// `threads`: `None` for ddp-core's default (`RAYON_NUM_THREADS`, else every core), else at

@@ -197,7 +197,11 @@ impl Problem {
         let src = self.source.bind(py);
         let get = |i: usize| src.get_item(i).ok();
         let dynamics = get(0)
-            .map(|d| items(&d).iter().any(|d| d.is_instance_of::<crate::callable::PyCallableDynamics>()))
+            .map(|d| {
+                items(&d)
+                    .iter()
+                    .any(|d| d.is_instance_of::<crate::callable::PyCallableDynamics>())
+            })
             .unwrap_or(false);
         let costs = [get(1), get(2)].into_iter().flatten().any(|c| {
             items(&c)

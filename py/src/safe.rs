@@ -1645,7 +1645,10 @@ fn batch_constraints(obj: &Bound<'_, PyAny>, count: usize) -> PyResult<Vec<Vec<A
         if !nested(&item) {
             return Err(invalid(
                 format!("constraints[{i}]"),
-                format!("must be a list of constraints (like constraints[0]), got {}", type_name(&item)),
+                format!(
+                    "must be a list of constraints (like constraints[0]), got {}",
+                    type_name(&item)
+                ),
             )
             .into());
         }
@@ -1730,5 +1733,7 @@ fn solve_batch_safe(
             with_dims!(nx, nu, safe_batch_impl(ps, &specs, t, settings, threads))
         })
     })?;
-    outs.into_iter().map(|o| SafeSolution::from_out(py, o, nx, nu)).collect()
+    outs.into_iter()
+        .map(|o| SafeSolution::from_out(py, o, nx, nu))
+        .collect()
 }

@@ -275,7 +275,12 @@ pub(crate) fn build_settings(
     let placement = match regularization.to_ascii_lowercase().as_str() {
         "control" => Regularization::Control,
         "state" => Regularization::State,
-        other => return Err(invalid("regularization", format!("must be 'control' or 'state', got '{other}'"))),
+        other => {
+            return Err(invalid(
+                "regularization",
+                format!("must be 'control' or 'state', got '{other}'"),
+            ))
+        }
     };
     let settings = Settings {
         method: parse_method(method)?,
@@ -770,10 +775,7 @@ pub fn solve_batch(
     let threads = crate::batch::threads_of(threads)?;
     let (nx, nu, n) = (batch.nx, batch.nu, batch.horizon);
     let locks = &batch.locks;
-    let outs = py.detach(|| {
-        crate::batch::read_all(locks, |ps| with_dims!(nx, nu, batch_impl(ps, settings, threads)))
-    })?;
-    outs.into_iter()
-        .map(|o| Solution::from_out(py, o, nx, nu, n))
-        .collect()
+    let outs =
+        py.detach(|| crate::batch::read_all(locks, |ps| with_dims!(nx, nu, batch_impl(ps, settings, threads))))?;
+    outs.into_iter().map(|o| Solution::from_out(py, o, nx, nu, n)).collect()
 }

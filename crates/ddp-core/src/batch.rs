@@ -159,9 +159,7 @@ where
     results
         .into_iter()
         .enumerate()
-        .map(|(i, r)| {
-            r.unwrap_or_else(|| Err(Error::invalid(format!("problems[{i}]"), "its worker thread failed")))
-        })
+        .map(|(i, r)| r.unwrap_or_else(|| Err(Error::invalid(format!("problems[{i}]"), "its worker thread failed"))))
         .collect()
 }
 

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use ddp_core::batch::{map_workers, solve_batch, BatchSolution};
 use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
-use ddp_core::dims::{Alloc, DefaultAllocator, Dim, Dyn, MatrixN, VectorN, U2, U3};
+use ddp_core::dims::{Alloc, DefaultAllocator, Dim, Dyn, MatrixN, U2, U3};
 use ddp_core::linear::LinearDynamics;
 use ddp_core::models::Unicycle;
 use ddp_core::reference::{car_parking, p1_unicycle};
@@ -42,7 +42,11 @@ fn unicycle_family(count: usize, bounded: bool) -> Vec<Problem<U3, U2>> {
 /// A 7-state, 3-control linear system at run-time sizes, from different `x0`.
 fn linear_family(count: usize) -> Vec<Problem<Dyn, Dyn>> {
     let (nx, nu) = (7, 3);
-    let a = DMatrix::<f64>::from_fn(nx, nx, |i, j| if i == j { 0.99 } else { 0.01 * ((i + 2 * j) % 5) as f64 });
+    let a = DMatrix::<f64>::from_fn(
+        nx,
+        nx,
+        |i, j| if i == j { 0.99 } else { 0.01 * ((i + 2 * j) % 5) as f64 },
+    );
     let b = DMatrix::<f64>::from_fn(nx, nu, |i, j| if i % nu == j { 0.1 } else { 0.0 });
     (0..count)
         .map(|c| {
@@ -87,9 +91,16 @@ where
         assert_eq!(g.us, w.us, "{what}: us of problem {i}");
         assert_eq!(g.gains, w.gains, "{what}: gains of problem {i}");
         assert_eq!(g.feedforward, w.feedforward, "{what}: feedforward of problem {i}");
-        assert_eq!(g.report.cost.to_bits(), w.report.cost.to_bits(), "{what}: cost of problem {i}");
+        assert_eq!(
+            g.report.cost.to_bits(),
+            w.report.cost.to_bits(),
+            "{what}: cost of problem {i}"
+        );
         assert_eq!(g.report.status, w.report.status, "{what}: status of problem {i}");
-        assert_eq!(g.report.iterations, w.report.iterations, "{what}: iterations of problem {i}");
+        assert_eq!(
+            g.report.iterations, w.report.iterations,
+            "{what}: iterations of problem {i}"
+        );
         // Debug prints every f64 exactly (shortest round-trip form) and NaN as NaN, which `==`
         // on the rows would call unequal (the first row's gradient is NaN).
         let (gl, wl) = (format!("{:?}", g.report.log), format!("{:?}", w.report.log));
@@ -132,7 +143,9 @@ fn box_ddp_batch_equals_one_at_a_time() {
     check_all_thread_counts(&problems, Settings::default(), "box-DDP");
     // The bounds are active somewhere (box-DDP's QP, not the free gains, made these).
     let sols = solve_batch(&problems, &Settings::default(), Some(2)).unwrap();
-    assert!(sols.iter().any(|s| s.us.iter().any(|u| (u[0].abs() - 0.6).abs() < 1e-12)));
+    assert!(sols
+        .iter()
+        .any(|s| s.us.iter().any(|u| (u[0].abs() - 0.6).abs() < 1e-12)));
 }
 
 #[test]
@@ -202,7 +215,10 @@ fn different_horizon_is_an_error_naming_the_index() {
         .unwrap(),
     );
     let e = solve_batch(&problems, &Settings::default(), Some(2)).unwrap_err();
-    assert!(matches!(&e, Error::Shape { field, .. } if field == "problems[3]"), "{e}");
+    assert!(
+        matches!(&e, Error::Shape { field, .. } if field == "problems[3]"),
+        "{e}"
+    );
     assert!(e.to_string().contains("(3, 2, 50)"), "{e}");
 }
 
@@ -226,7 +242,10 @@ fn different_run_time_sizes_are_an_error_naming_the_index() {
         .unwrap(),
     );
     let e = solve_batch(&problems, &Settings::default(), Some(2)).unwrap_err();
-    assert!(matches!(&e, Error::Shape { field, .. } if field == "problems[2]"), "{e}");
+    assert!(
+        matches!(&e, Error::Shape { field, .. } if field == "problems[2]"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -236,7 +255,10 @@ fn invalid_settings_are_an_error_naming_the_field() {
         ..Settings::default()
     };
     let e = solve_batch(&unicycle_family(2, false), &settings, Some(2)).unwrap_err();
-    assert!(matches!(&e, Error::Invalid { field, .. } if field == "settings.max_iterations"), "{e}");
+    assert!(
+        matches!(&e, Error::Invalid { field, .. } if field == "settings.max_iterations"),
+        "{e}"
+    );
 }
 
 /// A user model with a bug: it panics when the state's first coordinate passes 5.
@@ -299,7 +321,10 @@ fn derivative_threads_zero_is_an_error_naming_the_field() {
         ..Settings::default()
     };
     let e = Solver::new(&p1_unicycle(), settings).unwrap_err();
-    assert!(matches!(&e, Error::Invalid { field, .. } if field == "settings.derivative_threads"), "{e}");
+    assert!(
+        matches!(&e, Error::Invalid { field, .. } if field == "settings.derivative_threads"),
+        "{e}"
+    );
 }
 
 #[cfg(not(feature = "parallel"))]
@@ -317,6 +342,7 @@ fn derivative_threads_need_the_parallel_feature() {
 mod parallel_derivatives {
     use super::*;
     use ddp_core::reference::{arm_base_reach_horizon, quadrotor_reach_horizon};
+    use ddp_core::dims::VectorN;
     use ddp_core::solver::{DerivativeThreads, Linearization};
 
     /// The linearisation at a non-trivial trajectory, sequential and on `threads`.
@@ -376,11 +402,19 @@ mod parallel_derivatives {
                 };
                 let what = format!("{method:?}, {threads} threads");
                 let q = quadrotor_reach_horizon(100);
-                assert_identical(&[solve_with(&q, par)], &[solve_with(&q, base)], &format!("quadrotor {what}"));
+                assert_identical(
+                    &[solve_with(&q, par)],
+                    &[solve_with(&q, base)],
+                    &format!("quadrotor {what}"),
+                );
                 let a = arm_base_reach_horizon(60);
                 assert_identical(&[solve_with(&a, par)], &[solve_with(&a, base)], &format!("arm {what}"));
                 let b = &unicycle_family(1, true)[0];
-                assert_identical(&[solve_with(b, par)], &[solve_with(b, base)], &format!("box-DDP {what}"));
+                assert_identical(
+                    &[solve_with(b, par)],
+                    &[solve_with(b, base)],
+                    &format!("box-DDP {what}"),
+                );
                 let d = &linear_family(1)[0];
                 assert_identical(&[solve_with(d, par)], &[solve_with(d, base)], &format!("Dyn {what}"));
             }

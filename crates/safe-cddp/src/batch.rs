@@ -93,7 +93,10 @@ where
 
 /// Builds a solver for `item` and solves it from a cold start: the one-at-a-time solve that
 /// [`solve_batch`] runs per problem.
-pub fn solve_one<NX: Dim, NU: Dim>(item: &SafeBatchItem<NX, NU>, settings: Settings) -> Result<SafeBatchSolution<NX, NU>>
+pub fn solve_one<NX: Dim, NU: Dim>(
+    item: &SafeBatchItem<NX, NU>,
+    settings: Settings,
+) -> Result<SafeBatchSolution<NX, NU>>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {

@@ -54,9 +54,19 @@ fn safe_batch_equals_one_at_a_time_for_1_2_4_threads() {
             assert_eq!(g.xs, w.xs, "{threads} threads: xs of item {i}");
             assert_eq!(g.us, w.us, "{threads} threads: us of item {i}");
             assert_eq!(g.gains, w.gains, "{threads} threads: gains of item {i}");
-            assert_eq!(g.feedforward, w.feedforward, "{threads} threads: feedforward of item {i}");
-            assert_eq!(g.covariances, w.covariances, "{threads} threads: covariances of item {i}");
-            assert_eq!(g.report.cost.to_bits(), w.report.cost.to_bits(), "{threads} threads: cost of item {i}");
+            assert_eq!(
+                g.feedforward, w.feedforward,
+                "{threads} threads: feedforward of item {i}"
+            );
+            assert_eq!(
+                g.covariances, w.covariances,
+                "{threads} threads: covariances of item {i}"
+            );
+            assert_eq!(
+                g.report.cost.to_bits(),
+                w.report.cost.to_bits(),
+                "{threads} threads: cost of item {i}"
+            );
             assert_eq!(g.report.status, w.report.status);
             assert_eq!(g.report.iterations, w.report.iterations);
         }
@@ -81,7 +91,10 @@ fn safe_batch_bad_input_names_the_field() {
     )
     .unwrap();
     let e = solve_batch(&two, &Settings::default(), Some(2)).unwrap_err();
-    assert!(matches!(&e, Error::Shape { field, .. } if field == "problems[1]"), "{e}");
+    assert!(
+        matches!(&e, Error::Shape { field, .. } if field == "problems[1]"),
+        "{e}"
+    );
 
     let settings = Settings {
         max_iterations: 0,

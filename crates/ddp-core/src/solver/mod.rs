@@ -30,9 +30,8 @@ pub mod settings;
 
 pub use self::core::{
     armijo_accepts, backward_pass, line_search, BackwardOptions, BoxGains, ClampedGains, Core, DerivativeThreads,
-    Expected, FreeGains,
-    Gains, GainsInfo, Linearization, MuSchedule, NotPositiveDefinite, Policy, QBlocks, Trajectory, Trial,
-    ValueFunction,
+    Expected, FreeGains, Gains, GainsInfo, Linearization, MuSchedule, NotPositiveDefinite, Policy, QBlocks, Trajectory,
+    Trial, ValueFunction,
 };
 pub use self::settings::{
     IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Status,

@@ -341,8 +341,8 @@ fn derivative_threads_need_the_parallel_feature() {
 #[cfg(feature = "parallel")]
 mod parallel_derivatives {
     use super::*;
-    use ddp_core::reference::{arm_base_reach_horizon, quadrotor_reach_horizon};
     use ddp_core::dims::VectorN;
+    use ddp_core::reference::{arm_base_reach_horizon, quadrotor_reach_horizon};
     use ddp_core::solver::{DerivativeThreads, Linearization};
 
     /// The linearisation at a non-trivial trajectory, sequential and on `threads`.

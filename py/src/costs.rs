@@ -182,6 +182,15 @@ pub enum CostSpec {
 }
 
 impl CostSpec {
+    /// Whether evaluating this cost calls Python (a `from_callable` cost, also inside a sum).
+    pub(crate) fn calls_python(&self) -> bool {
+        match self {
+            CostSpec::Callable(_) => true,
+            CostSpec::Sum { terms, .. } => terms.iter().any(|(_, t)| t.calls_python()),
+            _ => false,
+        }
+    }
+
     /// The Python class name.
     fn kind(&self) -> &'static str {
         match self {

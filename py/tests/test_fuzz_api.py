@@ -301,6 +301,34 @@ def test_function_survives_garbage(name: str, data: st.DataObject) -> None:
     _call(f, _draw_kwargs(data, _parameters(f), {}))
 
 
+#: Valid arguments of the module functions that need them to get past their first check (the
+#: batch solves): one garbage argument among valid ones reaches the checks of the others.
+FUNCTION_VALID: dict[str, dict[str, Any]] = {
+    "solve_batch": {"problems": lambda: [_unicycle_problem(), _unicycle_problem()], "max_iterations": 3, "threads": 2},
+    "solve_batch_safe": {
+        "problems": lambda: [_point_problem(), _point_problem()],
+        "constraints": lambda: [ddpkit.Circle(center=np.array([0.5, 0.1]), radius=0.2)],
+        "max_iterations": 3,
+        "threads": 2,
+    },
+}
+
+
+def test_every_batch_function_has_valid_arguments() -> None:
+    """A public batch function of the wheel must have an entry in ``FUNCTION_VALID``."""
+    missing = [n for n, _ in _public_functions() if "batch" in n and n not in FUNCTION_VALID and n != "arclen_batch"]
+    assert missing == [], f"add these functions to FUNCTION_VALID in {__file__}: {missing}"
+
+
+@pytest.mark.parametrize("name", sorted(FUNCTION_VALID))
+@FUZZ
+@given(data=st.data())
+def test_function_with_valid_arguments_survives_garbage(name: str, data: st.DataObject) -> None:
+    f = getattr(ext, name)
+    valid = {k: (v() if callable(v) else v) for k, v in FUNCTION_VALID[name].items()}
+    _call(f, _draw_kwargs(data, _parameters(f), valid))
+
+
 @FUZZ
 @given(data=st.data())
 def test_results_of_solves_survive_garbage(data: st.DataObject) -> None:

@@ -740,9 +740,9 @@ where
 pub fn solve_batch(
     py: Python<'_>,
     problems: &Bound<'_, PyAny>,
-    threads: Option<i64>,
+    #[pyo3(from_py_with = crate::convert::opt_int_i64)] threads: Option<i64>,
     method: &str,
-    max_iterations: i64,
+    #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
     gradient_tolerance: f64,
     cost_tolerance: f64,
     mu_init: f64,
@@ -753,7 +753,7 @@ pub fn solve_batch(
     step_factor: f64,
     step_min: f64,
     armijo: f64,
-    box_qp_iterations: i64,
+    #[pyo3(from_py_with = crate::convert::int_i64)] box_qp_iterations: i64,
 ) -> PyResult<Vec<Solution>> {
     let settings = build_settings(
         method,

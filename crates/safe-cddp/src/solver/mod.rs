@@ -216,7 +216,7 @@ where
             constraints,
             core: Core::new(dims, cap, &settings.regularization),
             kkt: Kkt::new(dims, cap, m),
-            fwd: ForwardQp::new(dims, m, settings.qp_method)?,
+            fwd: ForwardQp::new(dims, cap, m, settings.qp_method)?,
             warm: WarmUpState::new(cap * m, settings.al_rho_init, settings.barrier_mu_init),
             stoch: Stochastic::new(dims, cap),
             rows,
@@ -634,6 +634,7 @@ where
         r.tightenings = 0;
         r.status = Status::MaxIterations;
         self.fwd.qp.reset_stats();
+        self.fwd.clear_hints();
         self.core.clamp_controls(problem.bounds());
         let cost = self.core.rollout(problem);
         // The warm-up runs after a cold start and whenever the initial trajectory violates a row;
@@ -1078,6 +1079,7 @@ where
             &self.core.lin.fx,
             &self.core.lin.fu,
             n,
+            !self.warm.active,
             hessian.then_some(&mut self.kkt.h_con[..]),
         );
         if barrier {

@@ -14,9 +14,17 @@
 //!    with a point that satisfies the KKT conditions (stationarity by construction, every row
 //!    feasible, multipliers `>= 0`), so its answer is the optimum too; it gives up after a few
 //!    changes of the working set, or on a degenerate one;
-//! 3. Clarabel, an interior-point solver set up once (dense `H` and `A` patterns, presolve and
+//! 3. a closed-form certificate of infeasibility (`box_infeasible`: a row that cannot be met in
+//!    the box of the control bounds and the trust region), which answers the common infeasible
+//!    QP of the forward pass without an interior-point solve that would only certify it;
+//! 4. Clarabel, an interior-point solver set up once (dense `H` and `A` patterns, presolve and
 //!    equilibration off) and updated in place with `update_P/q/A/b` for every QP; its answer is
 //!    polished by one exact solve on the rows it found active.
+//!
+//! [`StepQp::solve_elastic`] (the QP with its constraint rows relaxed by a penalised slack) tries
+//! an active-set method on the KKT system in `(du, s)` first and Clarabel only when it gives up;
+//! [`StepQp::solve_fast`] is steps 1-2 alone, for a knot whose QP was infeasible in the previous
+//! forward pass.
 //!
 //! Clarabel allocates a little inside `solve` (its timers); everything else here is allocated in
 //! [`StepQp::new`].
@@ -81,6 +89,21 @@ pub struct QpStats {
     pub failed: usize,
     /// Elastic QPs (infeasible rows relaxed by a penalised slack).
     pub elastic: usize,
+    /// Of `infeasible`, certified by the closed-form box test ([`StepQp::solve`]) without Clarabel.
+    pub box_certified: usize,
+    /// Elastic QPs posed without first certifying the QP infeasible (the knot's QP was
+    /// infeasible before; see [`StepQp::solve_fast`]).
+    pub elastic_direct: usize,
+    /// Of `elastic`, answered by the elastic active-set method (the rest went to Clarabel).
+    pub elastic_active_set: usize,
+}
+
+impl QpStats {
+    /// Solves handed to Clarabel: QPs (`clarabel`) and elastic QPs the active-set method did not
+    /// answer.
+    pub fn clarabel_solves(&self) -> usize {
+        self.clarabel + self.elastic - self.elastic_active_set
+    }
 }
 
 impl std::ops::AddAssign for QpStats {
@@ -93,6 +116,9 @@ impl std::ops::AddAssign for QpStats {
         self.infeasible += o.infeasible;
         self.failed += o.failed;
         self.elastic += o.elastic;
+        self.box_certified += o.box_certified;
+        self.elastic_direct += o.elastic_direct;
+        self.elastic_active_set += o.elastic_active_set;
     }
 }
 
@@ -100,6 +126,9 @@ impl std::ops::AddAssign for QpStats {
 const FEAS_TOL: f64 = 1e-10;
 /// Working-set changes the active-set method may make before handing over to Clarabel.
 const ACTIVE_SET_ITERATIONS: usize = 8;
+
+/// Working-set changes the elastic active-set method may make before handing over to Clarabel.
+const ELASTIC_ITERATIONS: usize = 12;
 
 /// The most controls a per-step QP takes (its polish step keeps a stack list of 64 rows).
 pub const MAX_QP_CONTROLS: usize = 63;
@@ -221,6 +250,11 @@ where
     clarabel: ClarabelQp,
     elastic: ClarabelQp,
     working: Vec<usize>,
+    /// The elastic active-set method's working set, KKT matrix (row-major, `(2 nu + 2)^2`) and
+    /// right-hand side / solution.
+    e_working: Vec<usize>,
+    e_kkt: Vec<f64>,
+    e_rhs: Vec<f64>,
     stats: QpStats,
 }
 
@@ -259,6 +293,9 @@ where
             clarabel: ClarabelQp::new(n, m)?,
             elastic: ClarabelQp::new(n + 1, m + 1)?,
             working: Vec::with_capacity(n),
+            e_working: Vec::with_capacity(n + 1),
+            e_kkt: vec![0.0; (2 * n + 2) * (2 * n + 2)],
+            e_rhs: vec![0.0; 2 * n + 2],
             stats: QpStats::default(),
         })
     }
@@ -281,6 +318,11 @@ where
     /// Counters since the last reset.
     pub fn stats(&self) -> &QpStats {
         &self.stats
+    }
+
+    /// Counts an elastic QP posed without certifying the QP infeasible first.
+    pub fn count_elastic_direct(&mut self) {
+        self.stats.elastic_direct += 1;
     }
 
     /// Zeros the counters.
@@ -311,17 +353,64 @@ where
             return QpOutcome::Failed;
         };
         if self.method == QpMethod::Fast {
-            let du = -chol.solve(q);
-            if max_violation(&du, a, b, trust) <= 0.0 {
-                self.stats.unconstrained += 1;
-                return QpOutcome::Solved(du, QpPath::Unconstrained);
+            if let Some(solved) = self.fast_paths(&chol, q, a, b, trust, guess) {
+                return solved;
             }
-            if let Some(du) = self.active_set(&chol, q, a, b, trust, guess) {
-                self.stats.active_set += 1;
-                return QpOutcome::Solved(du, QpPath::ActiveSet);
+            if box_infeasible(a, b, trust) {
+                self.stats.infeasible += 1;
+                self.stats.box_certified += 1;
+                return QpOutcome::Infeasible;
             }
         }
         self.clarabel_solve(&chol, h, q, a, b, trust)
+    }
+
+    /// [`StepQp::solve`] without Clarabel: the unconstrained minimiser and the active-set method
+    /// (their answers are optimal). `None` when neither finds the KKT point, or `h` is not
+    /// positive definite; the caller then poses the QP in elastic form right away (a knot whose
+    /// QP was infeasible in the previous forward pass, where certifying it again would cost an
+    /// interior-point solve that only reports infeasibility).
+    pub fn solve_fast(
+        &mut self,
+        h: &MatrixN<NU, NU>,
+        q: &VectorN<NU>,
+        a: &[VectorN<NU>],
+        b: &[f64],
+        trust: f64,
+        guess: &[usize],
+    ) -> Option<VectorN<NU>> {
+        assert!(
+            a.len() <= self.max_rows && a.len() == b.len(),
+            "QP rows exceed the capacity"
+        );
+        self.stats.solved += 1;
+        let chol = h.clone().cholesky()?;
+        match self.fast_paths(&chol, q, a, b, trust, guess)? {
+            QpOutcome::Solved(du, _) => Some(du),
+            _ => None,
+        }
+    }
+
+    /// The unconstrained minimiser, then the active-set method (counted in the stats).
+    fn fast_paths(
+        &mut self,
+        chol: &Cholesky<f64, NU>,
+        q: &VectorN<NU>,
+        a: &[VectorN<NU>],
+        b: &[f64],
+        trust: f64,
+        guess: &[usize],
+    ) -> Option<QpOutcome<NU>> {
+        let du = -chol.solve(q);
+        if max_violation(&du, a, b, trust) <= 0.0 {
+            self.stats.unconstrained += 1;
+            return Some(QpOutcome::Solved(du, QpPath::Unconstrained));
+        }
+        if let Some(du) = self.active_set(chol, q, a, b, trust, guess) {
+            self.stats.active_set += 1;
+            return Some(QpOutcome::Solved(du, QpPath::ActiveSet));
+        }
+        None
     }
 
     /// Row `i` of the combined system: constraint rows first, then the trust region
@@ -442,6 +531,128 @@ where
         None
     }
 
+    /// A primal active-set method for the elastic QP of [`StepQp::solve_elastic`], in the
+    /// variables `z = (du, s)`: each step solves the KKT system of the working set exactly,
+    ///
+    /// ```text
+    /// [ H  0  A_u^T ] [du]   [-q]
+    /// [ 0  0  A_s^T ] [s ] = [-p]      (A_s = -1 on soft rows and on -s <= 0, else 0),
+    /// [A_u A_s  0   ] [l ]   [ b]
+    /// ```
+    ///
+    /// drops the most negative multiplier, or adds the most violated row; it returns only a KKT
+    /// point (stationary, primal feasible, multipliers `>= 0`), which is the optimum of this
+    /// convex QP. `None` (hand over to Clarabel) on a dependent working set or after a few
+    /// changes of it. Starts from the most violated soft row at the unconstrained minimiser.
+    #[allow(clippy::too_many_arguments)]
+    fn elastic_active_set(
+        &mut self,
+        chol: &Cholesky<f64, NU>,
+        h: &MatrixN<NU, NU>,
+        q: &VectorN<NU>,
+        a: &[VectorN<NU>],
+        b: &[f64],
+        soft: usize,
+        trust: f64,
+        penalty: f64,
+    ) -> Option<(VectorN<NU>, f64)> {
+        let nu = self.nu.value();
+        let n_rows = self.n_rows(a, trust);
+        let s_row = n_rows; // -s <= 0
+        let du0 = -chol.solve(q);
+        let mut first = (usize::MAX, f64::NEG_INFINITY);
+        for i in 0..soft {
+            let v = (a[i].dot(&du0) - b[i]) / (1.0 + b[i].abs());
+            if v > first.1 {
+                first = (i, v);
+            }
+        }
+        if first.0 == usize::MAX {
+            return None;
+        }
+        self.e_working.clear();
+        self.e_working.push(first.0);
+        // Every working row has a unit entry (soft rows in `s`, bounds and trust region in
+        // `du`), so pivots are measured against `H`'s scale.
+        let tiny = 1e-14 * h.amax().max(1.0);
+        for _ in 0..ELASTIC_ITERATIONS {
+            let m = self.e_working.len();
+            let dim = nu + 1 + m;
+            let kkt = &mut self.e_kkt[..dim * dim];
+            let rhs = &mut self.e_rhs[..dim];
+            kkt.fill(0.0);
+            for r in 0..nu {
+                for c in 0..nu {
+                    kkt[r * dim + c] = h[(r, c)];
+                }
+                rhs[r] = -q[r];
+            }
+            rhs[nu] = -penalty;
+            for (w, &i) in self.e_working.iter().enumerate() {
+                let row = nu + 1 + w;
+                let (ai, bi, si) = if i == s_row {
+                    (None, 0.0, -1.0)
+                } else {
+                    let (ai, bi) = Self::row(self.nu, a, b, trust, i);
+                    (Some(ai), bi, if i < soft { -1.0 } else { 0.0 })
+                };
+                if let Some(ai) = ai {
+                    for j in 0..nu {
+                        kkt[row * dim + j] = ai[j];
+                        kkt[j * dim + row] = ai[j];
+                    }
+                }
+                kkt[row * dim + nu] = si;
+                kkt[nu * dim + row] = si;
+                rhs[row] = bi;
+            }
+            if !solve_dense(kkt, rhs, dim, tiny) {
+                return None;
+            }
+            let du = VectorN::<NU>::from_fn_generic(self.nu, U1, |j, _| rhs[j]);
+            let s = rhs[nu];
+            // Drop the most negative multiplier first.
+            let mut worst = (usize::MAX, -1e-12 * (1.0 + penalty));
+            for w in 0..m {
+                if rhs[nu + 1 + w] < worst.1 {
+                    worst = (w, rhs[nu + 1 + w]);
+                }
+            }
+            if worst.0 != usize::MAX {
+                self.e_working.remove(worst.0);
+                if self.e_working.is_empty() {
+                    return None;
+                }
+                continue;
+            }
+            // Add the most violated row.
+            let mut add = (usize::MAX, 0.0);
+            for i in 0..=n_rows {
+                if self.e_working.contains(&i) {
+                    continue;
+                }
+                let v = if i == s_row {
+                    -s
+                } else {
+                    let (ai, bi) = Self::row(self.nu, a, b, trust, i);
+                    let lhs = ai.dot(&du) - if i < soft { s } else { 0.0 };
+                    (lhs - bi) / (1.0 + bi.abs())
+                };
+                if v > FEAS_TOL && v > add.1 {
+                    add = (i, v);
+                }
+            }
+            if add.0 == usize::MAX {
+                return Some((du, s.max(0.0)));
+            }
+            if m == nu + 1 {
+                return None;
+            }
+            self.e_working.push(add.0);
+        }
+        None
+    }
+
     fn clarabel_solve(
         &mut self,
         chol: &Cholesky<f64, NU>,
@@ -525,6 +736,16 @@ where
     ) -> Option<(VectorN<NU>, f64)> {
         assert!(a.len() <= self.max_rows && a.len() == b.len() && soft <= a.len());
         self.stats.elastic += 1;
+        if self.method == QpMethod::Fast {
+            if let Some(solved) = h
+                .clone()
+                .cholesky()
+                .and_then(|chol| self.elastic_active_set(&chol, h, q, a, b, soft, trust, penalty))
+            {
+                self.stats.elastic_active_set += 1;
+                return Some(solved);
+            }
+        }
         let n_rows = self.n_rows(a, trust);
         let nu = self.nu.value();
         let status = self.elastic.solve(
@@ -558,6 +779,113 @@ where
             }
         }
     }
+}
+
+/// Solves the `dim x dim` system `m x = rhs` (row-major `m`, overwritten) in place by Gaussian
+/// elimination with partial pivoting; `false` when a pivot is below `tiny` (a dependent working
+/// set).
+fn solve_dense(m: &mut [f64], rhs: &mut [f64], dim: usize, tiny: f64) -> bool {
+    for col in 0..dim {
+        let mut piv = col;
+        for r in col + 1..dim {
+            if m[r * dim + col].abs() > m[piv * dim + col].abs() {
+                piv = r;
+            }
+        }
+        let p = m[piv * dim + col];
+        if p.is_nan() || p.abs() <= tiny {
+            return false;
+        }
+        if piv != col {
+            for c in 0..dim {
+                m.swap(piv * dim + c, col * dim + c);
+            }
+            rhs.swap(piv, col);
+        }
+        for r in col + 1..dim {
+            let f = m[r * dim + col] / p;
+            if f != 0.0 {
+                for c in col..dim {
+                    m[r * dim + c] -= f * m[col * dim + c];
+                }
+                rhs[r] -= f * rhs[col];
+            }
+        }
+    }
+    for r in (0..dim).rev() {
+        let mut v = rhs[r];
+        for c in r + 1..dim {
+            v -= m[r * dim + c] * rhs[c];
+        }
+        rhs[r] = v / m[r * dim + r];
+    }
+    true
+}
+
+/// A closed-form certificate of infeasibility: the box `lo <= du <= hi` that the trust region
+/// and the rows with a single nonzero entry (the control-bound sides) define is empty, or some
+/// other row cannot be met anywhere in it (`min_box a_i^T du > b_i`, by a margin well above the
+/// QP's feasibility tolerance). A `false` proves nothing. Catches the common infeasible QP of the
+/// forward pass (a state row of relative degree `r`, whose `C_i` is `O(dt^r)`, asking for more
+/// than the control bounds allow) without an interior-point solve.
+fn box_infeasible<NU: Dim>(a: &[VectorN<NU>], b: &[f64], trust: f64) -> bool
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    const MARGIN: f64 = 1e-8;
+    let n = a.first().map_or(0, |ai| ai.len());
+    if n == 0 || n > MAX_QP_CONTROLS {
+        return false;
+    }
+    let (mut lo, mut hi) = ([-trust; MAX_QP_CONTROLS], [trust; MAX_QP_CONTROLS]);
+    let single = |ai: &VectorN<NU>| {
+        let mut at = usize::MAX;
+        for (j, &v) in ai.iter().enumerate() {
+            if v != 0.0 {
+                if at != usize::MAX {
+                    return None;
+                }
+                at = j;
+            }
+        }
+        (at != usize::MAX).then_some(at)
+    };
+    for (ai, &bi) in a.iter().zip(b) {
+        if let Some(j) = single(ai) {
+            // a_ij du_j <= b_i
+            let bound = bi / ai[j];
+            if ai[j] > 0.0 {
+                hi[j] = hi[j].min(bound);
+            } else {
+                lo[j] = lo[j].max(bound);
+            }
+        }
+    }
+    for j in 0..n {
+        if lo[j] > hi[j] + MARGIN * (1.0 + lo[j].abs().max(hi[j].abs())) {
+            return true;
+        }
+    }
+    for (ai, &bi) in a.iter().zip(b) {
+        if single(ai).is_some() {
+            continue;
+        }
+        let mut least = 0.0;
+        for (j, &v) in ai.iter().enumerate() {
+            least += if v > 0.0 {
+                v * lo[j]
+            } else if v < 0.0 {
+                v * hi[j]
+            } else {
+                0.0
+            };
+        }
+        // An unbounded side gives -inf (never a certificate); NaN compares false.
+        if least - bi > MARGIN * (1.0 + bi.abs()) {
+            return true;
+        }
+    }
+    false
 }
 
 /// Largest scaled violation `(a_i^T du - b_i) / (1 + |b_i|)` minus the tolerance, over the rows
@@ -618,6 +946,105 @@ mod tests {
                 other => panic!("{other:?}"),
             }
         }
+    }
+
+    #[test]
+    fn box_certificate_skips_clarabel_only_when_infeasible() {
+        // Control bounds |du_j| <= 1 as single-entry rows, and a row 0.01 du_0 + 0.01 du_1 <= -0.03
+        // that needs du_0 + du_1 <= -3: impossible in the box, certified without Clarabel.
+        let h = Matrix::<2, 2>::identity();
+        let q = Vector::<2>::new(1.0, -1.0);
+        let mut a = vec![
+            Vector::<2>::new(0.01, 0.01),
+            Vector::<2>::new(1.0, 0.0),
+            Vector::<2>::new(-1.0, 0.0),
+            Vector::<2>::new(0.0, 1.0),
+            Vector::<2>::new(0.0, -1.0),
+        ];
+        let mut b = vec![-0.03, 1.0, 1.0, 1.0, 1.0];
+        let mut qp = StepQp::new(U2, 5, QpMethod::Fast).unwrap();
+        assert_eq!(qp.solve(&h, &q, &a, &b, f64::INFINITY, &[]), QpOutcome::Infeasible);
+        assert_eq!((qp.stats().box_certified, qp.stats().clarabel), (1, 0));
+        // Just inside the box (du = (-1, -1) meets it with room): not certified, and solved.
+        b[0] = -0.019;
+        match qp.solve(&h, &q, &a, &b, f64::INFINITY, &[]) {
+            QpOutcome::Solved(du, _) => assert!(0.01 * (du[0] + du[1]) <= -0.019 + 1e-12 && du.amax() <= 1.0 + 1e-12),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(qp.stats().box_certified, 1);
+        // Contradictory single-entry rows (du_0 <= -2 and du_0 >= -1) with a trust region.
+        a.truncate(3);
+        b.truncate(3);
+        b[0] = 1.0;
+        a[1] = Vector::<2>::new(2.0, 0.0);
+        b[1] = -4.0;
+        assert_eq!(qp.solve(&h, &q, &a, &b, 5.0, &[]), QpOutcome::Infeasible);
+        assert_eq!(qp.stats().box_certified, 2);
+        // Clarabel agrees that the last QP is infeasible.
+        let mut exact = StepQp::new(U2, 5, QpMethod::Clarabel).unwrap();
+        assert_eq!(exact.solve(&h, &q, &a, &b, 5.0, &[]), QpOutcome::Infeasible);
+        assert_eq!(exact.stats().box_certified, 0);
+    }
+
+    #[test]
+    fn solve_fast_answers_without_clarabel_or_declines() {
+        let (h, q, a, b) = hand_qp();
+        let mut qp = StepQp::new(U2, 2, QpMethod::Fast).unwrap();
+        let du = qp.solve_fast(&h, &q, &a, &b, f64::INFINITY, &[]).unwrap();
+        assert!((du - Vector::<2>::new(0.5, 0.5)).amax() < 1e-9);
+        // Infeasible rows: no answer, and no Clarabel call.
+        let rows = [Vector::<2>::new(1.0, 0.0), Vector::<2>::new(-1.0, 0.0)];
+        assert!(qp
+            .solve_fast(&h, &q, &rows, &[-1.0, -1.0], f64::INFINITY, &[])
+            .is_none());
+        assert_eq!(qp.stats().clarabel, 0);
+    }
+
+    #[test]
+    fn elastic_active_set_matches_clarabel() {
+        // Seeded QPs in the forward pass's shape: soft rows with small `C` (relative degree 2),
+        // hard control-bound sides, sometimes a trust region; the elastic optimum of the
+        // active-set method (`Fast`) against Clarabel's.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rand = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut answered = 0;
+        for case in 0..200 {
+            let l = Matrix::<2, 2>::new(1.0 + rand().abs(), 0.0, rand(), 0.5 + rand().abs());
+            let h = l * l.transpose();
+            let q = Vector::<2>::new(rand(), rand());
+            let soft = 1 + case % 3;
+            let mut a = Vec::new();
+            let mut b = Vec::new();
+            for _ in 0..soft {
+                a.push(Vector::<2>::new(1e-2 * rand(), 1e-2 * rand()));
+                b.push(0.05 * rand());
+            }
+            for (row, bound) in [
+                (Vector::<2>::new(1.0, 0.0), 1.0),
+                (Vector::<2>::new(-1.0, 0.0), 1.0),
+                (Vector::<2>::new(0.0, 1.0), 0.5),
+                (Vector::<2>::new(0.0, -1.0), 0.5),
+            ] {
+                a.push(row);
+                b.push(bound);
+            }
+            let trust = if case % 4 == 0 { 0.7 } else { f64::INFINITY };
+            let mut fast = StepQp::new(U2, 8, QpMethod::Fast).unwrap();
+            let mut exact = StepQp::new(U2, 8, QpMethod::Clarabel).unwrap();
+            let (du, s) = fast.solve_elastic(&h, &q, &a, &b, soft, trust, 1e3).unwrap();
+            let (du_c, s_c) = exact.solve_elastic(&h, &q, &a, &b, soft, trust, 1e3).unwrap();
+            assert!(
+                (du - du_c).amax() < 1e-6 && (s - s_c).abs() < 1e-6,
+                "case {case}: {du} {s} against Clarabel's {du_c} {s_c}"
+            );
+            answered += fast.stats().elastic_active_set;
+        }
+        assert!(answered >= 120, "the active-set method answered only {answered} of 200");
     }
 
     #[test]

@@ -14,7 +14,7 @@ use ddp_core::Problem;
 
 use super::rows::Rows;
 use super::working_set::Kkt;
-use crate::qp::{QpMethod, QpOutcome, StepQp};
+use crate::qp::{QpMethod, QpOutcome, QpPath, StepQp};
 
 /// Result of one forward pass.
 pub(crate) enum Forward {
@@ -38,13 +38,17 @@ where
     qguess: Vec<usize>,
     dx: VectorN<NX>,
     q: VectorN<NU>,
+    /// Per knot: its last QP was infeasible (certified, or relaxed with a positive slack). In
+    /// elastic mode such a knot goes straight to the elastic QP when the fast paths fail,
+    /// instead of paying Clarabel to certify the infeasibility again.
+    infeasible: Vec<bool>,
 }
 
 impl<NX: Dim, NU: Dim> ForwardQp<NX, NU>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    pub fn new(dims: Dims<NX, NU>, m: usize, method: QpMethod) -> ddp_core::Result<Self> {
+    pub fn new(dims: Dims<NX, NU>, cap: usize, m: usize, method: QpMethod) -> ddp_core::Result<Self> {
         Ok(Self {
             qp: StepQp::new(dims.nu, m, method)?,
             qa: vec![dims.u_zeros(); m],
@@ -53,7 +57,14 @@ where
             qguess: Vec::with_capacity(dims.nu()),
             dx: dims.x_zeros(),
             q: dims.u_zeros(),
+            infeasible: vec![false; cap],
         })
+    }
+
+    /// Forgets which knots had infeasible QPs (at the start of a solve, so that a solve's result
+    /// does not depend on the one before).
+    pub fn clear_hints(&mut self) {
+        self.infeasible.iter_mut().for_each(|f| *f = false);
     }
 
     /// The forward pass with step `alpha` into the core's trial trajectory. `elastic`: solve
@@ -112,11 +123,26 @@ where
             }
             let h = &kkt.q_uu_r[k];
             let (qa, qb) = (&self.qa[..count], &self.qb[..count]);
-            let du = match self.qp.solve(h, &self.q, qa, qb, trust, &self.qguess) {
+            let outcome = if elastic && self.infeasible[k] && self.qp.method() == QpMethod::Fast {
+                match self.qp.solve_fast(h, &self.q, qa, qb, trust, &self.qguess) {
+                    Some(du) => QpOutcome::Solved(du, QpPath::ActiveSet),
+                    None => {
+                        self.qp.count_elastic_direct();
+                        QpOutcome::Infeasible
+                    }
+                }
+            } else {
+                self.qp.solve(h, &self.q, qa, qb, trust, &self.qguess)
+            };
+            self.infeasible[k] = matches!(outcome, QpOutcome::Infeasible);
+            let du = match outcome {
                 QpOutcome::Solved(du, _) => du,
                 QpOutcome::Infeasible if elastic => {
                     match self.qp.solve_elastic(h, &self.q, qa, qb, soft, trust, penalty) {
-                        Some((du, _)) => du,
+                        Some((du, slack)) => {
+                            self.infeasible[k] = slack > 1e-9;
+                            du
+                        }
                         None => return Forward::Failed { knot: k },
                     }
                 }

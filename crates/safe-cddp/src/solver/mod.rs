@@ -98,6 +98,16 @@ pub enum IterationOutcome {
     Converged,
 }
 
+/// An accepted step of the line search: its length, the merit and cost of the new trajectory
+/// and its largest row violation.
+#[derive(Debug, Clone, Copy)]
+struct Step {
+    alpha: f64,
+    merit: f64,
+    cost: f64,
+    violation_max: f64,
+}
+
 /// The iteration state that is neither trajectory nor constraint data.
 #[derive(Debug, Clone, Copy)]
 struct IterState {
@@ -216,7 +226,7 @@ where
             constraints,
             core: Core::new(dims, cap, &settings.regularization),
             kkt: Kkt::new(dims, cap, m),
-            fwd: ForwardQp::new(dims, m, settings.qp_method)?,
+            fwd: ForwardQp::new(dims, cap, m, settings.qp_method)?,
             warm: WarmUpState::new(cap * m, settings.al_rho_init, settings.barrier_mu_init),
             stoch: Stochastic::new(dims, cap),
             rows,
@@ -634,6 +644,7 @@ where
         r.tightenings = 0;
         r.status = Status::MaxIterations;
         self.fwd.qp.reset_stats();
+        self.fwd.clear_hints();
         self.core.clamp_controls(problem.bounds());
         let cost = self.core.rollout(problem);
         // The warm-up runs after a cold start and whenever the initial trajectory violates a row;
@@ -698,7 +709,7 @@ where
             return Ok(outcome);
         }
         match self.try_step(problem) {
-            Ok((alpha, merit, cost)) => Ok(self.accept_step(problem, iteration, alpha, merit, cost)),
+            Ok(step) => Ok(self.accept_step(problem, iteration, step)),
             Err(failure) => Ok(self.reject_step(problem, iteration, failure)),
         }
     }
@@ -789,12 +800,12 @@ where
     /// KKT/QP phase runs the per-step QPs (retrying an infeasible QP with a shrinking trust
     /// region, then in elastic form). Returns the accepted step with its merit and cost, or the
     /// status of the failure.
-    fn try_step(&mut self, problem: &Problem<NX, NU>) -> std::result::Result<(f64, f64, f64), Option<Status>> {
+    fn try_step(&mut self, problem: &Problem<NX, NU>) -> std::result::Result<Step, Option<Status>> {
         let s = self.settings;
         let mut retries = 0;
         let mut elastic = false;
         let mut failure: Option<Status> = None;
-        let mut accepted = (f64::NAN, f64::NAN);
+        let mut accepted = (f64::NAN, f64::NAN, f64::NAN);
         let alpha = line_search(&s.line_search, |alpha| {
             self.report.forward_passes += 1;
             let done = if self.warm.active {
@@ -824,7 +835,7 @@ where
                         && (armijo_accepts(&s.line_search, expected, actual)
                             || (small && trial.max <= self.it.violation_max.max(s.constraint_tolerance)));
                     if ok {
-                        accepted = (merit, cost);
+                        accepted = (merit, cost, trial.max);
                         Trial::Accept
                     } else {
                         Trial::Shorter
@@ -855,27 +866,32 @@ where
             }
         });
         match alpha {
-            Some(alpha) => Ok((alpha, accepted.0, accepted.1)),
+            Some(alpha) => Ok(Step {
+                alpha,
+                merit: accepted.0,
+                cost: accepted.1,
+                violation_max: accepted.2,
+            }),
             None => Err(failure),
         }
     }
 
     /// Makes the trial the nominal trajectory, lowers `mu`, lets the trust region grow back, and
     /// runs the convergence tests (the warm-up's multiplier update, or the merit change).
-    fn accept_step(
-        &mut self,
-        problem: &Problem<NX, NU>,
-        iteration: usize,
-        alpha: f64,
-        merit: f64,
-        cost: f64,
-    ) -> IterationOutcome {
+    fn accept_step(&mut self, problem: &Problem<NX, NU>, iteration: usize, step: Step) -> IterationOutcome {
+        let Step {
+            alpha,
+            merit,
+            cost,
+            violation_max,
+        } = step;
         let s = self.settings;
         let change = self.it.merit - merit;
         self.core.traj.accept_trial();
         self.core.cost = cost;
         self.it.merit = merit;
-        self.it.violation_max = self.violation_of(false, true).max;
+        // The line search evaluated the rows along this trajectory as the trial.
+        self.it.violation_max = violation_max;
         self.it.need_linearize = true;
         self.report.iterations += 1;
         self.log(iteration, alpha, true);
@@ -1078,6 +1094,7 @@ where
             &self.core.lin.fx,
             &self.core.lin.fu,
             n,
+            !self.warm.active,
             hessian.then_some(&mut self.kkt.h_con[..]),
         );
         if barrier {

@@ -162,7 +162,9 @@ where
 
     /// Linearises every row of knots `0 .. n` along `(xs, us)` (Jacobians `fx`, `fu` of the
     /// dynamics already computed). With `hessian`, adds `lambda g_xx` of rows with a positive
-    /// multiplier to `h_con` at the row's time.
+    /// multiplier to `h_con` at the row's time. Without `chain`, state rows get `g`, `g_x`, `g_u`
+    /// only and keep stale `C`, `D`: the warm-up reads the rows at their own time and only the
+    /// control bounds' `C` (its working set), so it skips the products `g_x Phi f_u`, `g_x Phi f_x`.
     #[allow(clippy::too_many_arguments)]
     pub fn linearize(
         &mut self,
@@ -173,6 +175,7 @@ where
         fx: &[MatrixN<NX, NX>],
         fu: &[MatrixN<NX, NU>],
         n: usize,
+        chain: bool,
         h_con: Option<&mut [MatrixN<NX, NX>]>,
     ) {
         let m = self.m;
@@ -206,7 +209,7 @@ where
                     if slot.mixed {
                         self.c[i].copy_from(&self.sgu[r]);
                         self.d[i].copy_from(&self.sgx[r]);
-                    } else {
+                    } else if chain {
                         // g(x_t) with x_t = f(..f(x_k, u_k)..): chain the Jacobians back to knot k.
                         self.w.copy_from(&self.sgx[r]);
                         for s in (k + 1..t).rev() {

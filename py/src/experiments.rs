@@ -10,6 +10,7 @@
 //! | name | crate functions | a task is |
 //! |---|---|---|
 //! | `safe-table` | [`safe_cddp::sweep`] | one MPC episode of Table I (Alcan and Kyrki 2022) |
+//! | `subgoal-dataset` | [`subgoal_infer::dataset::sweep`] | one shard of the DDPEN sub-goal dataset (Gamayunov et al. 2023), written by the task into `out_dir` |
 //!
 //! Running a task releases the GIL. Every error is a `ddpkit.DdpError` naming the argument (and,
 //! inside it, the field); a panic inside a task is caught and reported as an error too, so an
@@ -22,9 +23,21 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 use crate::errors::{invalid, CoreError, CoreResult};
+use subgoal_infer::dataset::sweep as dataset;
+use subgoal_infer::dataset::DatasetError;
+
+/// A dataset error as a ddpkit error naming `arg.field`.
+fn ds(arg: &str, e: DatasetError) -> CoreError {
+    let field = e.field();
+    let reason = match &e {
+        DatasetError::Invalid(subgoal_infer::Error::Invalid { reason, .. }) => reason.clone(),
+        other => other.to_string(),
+    };
+    invalid(format!("{arg}.{field}"), reason)
+}
 
 /// The experiments, by the names the Python CLI uses.
-const NAMES: [&str; 1] = ["safe-table"];
+const NAMES: [&str; 2] = ["safe-table", "subgoal-dataset"];
 
 fn parse<T: DeserializeOwned>(field: &str, text: &str) -> CoreResult<T> {
     serde_json::from_str(text).map_err(|e| invalid(field, format!("not a valid specification: {e}")))
@@ -50,6 +63,11 @@ fn tasks_of(name: &str, config_json: &str) -> CoreResult<Vec<String>> {
             let tasks = safe_cddp::sweep::tasks(&config).map_err(|e| core("config_json", e))?;
             tasks.iter().map(|t| to_json("spec", t)).collect()
         }
+        "subgoal-dataset" => {
+            let config: dataset::DatasetConfig = parse("config_json", config_json)?;
+            let tasks = dataset::tasks(&config).map_err(|e| ds("config_json", e))?;
+            tasks.iter().map(|t| to_json("spec", t)).collect()
+        }
         _ => Err(unknown(name)),
     }
 }
@@ -60,6 +78,11 @@ fn run_of(name: &str, spec_json: &str) -> CoreResult<String> {
             let task: safe_cddp::sweep::EpisodeTask = parse("spec_json", spec_json)?;
             let outcome = safe_cddp::sweep::run_task(&task).map_err(|e| core("spec_json", e))?;
             to_json("result", &outcome)
+        }
+        "subgoal-dataset" => {
+            let task: dataset::ShardTask = parse("spec_json", spec_json)?;
+            let result = dataset::run_task(&task).map_err(|e| ds("spec_json", e))?;
+            to_json("result", &result)
         }
         _ => Err(unknown(name)),
     }
@@ -105,6 +128,21 @@ fn aggregate_of(name: &str, config_json: &str, results: &[String], out_dir: &Pat
             }
             text.push_str(&format!("wrote {}\n", out_dir.join("table1.json").display()));
             Ok(text)
+        }
+        "subgoal-dataset" => {
+            // The shards are in the configuration's `out_dir` (where the tasks wrote them).
+            let config: dataset::DatasetConfig = parse("config_json", config_json)?;
+            let shards: Vec<dataset::ShardResult> = parse_all(results)?;
+            let s = dataset::aggregate(&config, &shards).map_err(|e| ds("results_json", e))?;
+            Ok(format!(
+                "{} samples in {} shards -> {} ({:.2} s, {:.0} samples/s, workers: {})\n",
+                s.samples,
+                s.shards.len(),
+                s.dir.display(),
+                info.seconds,
+                s.samples as f64 / info.seconds.max(1e-9),
+                info.workers,
+            ))
         }
         _ => Err(unknown(name)),
     }

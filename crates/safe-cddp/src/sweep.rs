@@ -379,7 +379,8 @@ mod tests {
         assert_eq!(t[1].episode, 1);
         assert_eq!(t[0].seed, t[2].seed, "common random numbers across methods");
         assert_eq!(t[8].robot, Robot::Point);
-        let (methods, runs) = car_runs(&c, &vec![EpisodeOutcome::default(); t.len()]).unwrap();
+        let outcomes = vec![EpisodeOutcome::default(); t.len()];
+        let (methods, runs) = car_runs(&c, &outcomes).unwrap();
         assert_eq!(methods.len(), 4);
         assert!(runs.iter().all(|r| r.len() == 2));
     }

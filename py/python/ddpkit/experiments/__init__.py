@@ -24,6 +24,7 @@ reported with its specification and the others go on; the summary counts the fai
 | name | binary | a task is |
 |---|---|---|
 | ``safe-table`` | ``safe-cddp-table`` | one MPC episode of Table I (robot, method, episode) |
+| ``subgoal-dataset`` | ``subgoal-dataset`` | one shard (written by the task into the output directory) |
 """
 
 from __future__ import annotations
@@ -85,6 +86,12 @@ EXPERIMENTS: dict[str, Experiment] = {
     e.name: e
     for e in [
         Experiment("safe-table", "safe-cddp-table", "Safe-CDDP Table I and Fig. 4 (Alcan and Kyrki 2022): one task per episode"),
+        Experiment(
+            "subgoal-dataset",
+            "subgoal-dataset",
+            "DDPEN sub-goal dataset (Gamayunov et al. 2023): one task per safetensors shard",
+            writes_files=True,
+        ),
     ]
 }
 

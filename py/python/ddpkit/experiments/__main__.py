@@ -40,6 +40,11 @@ OPTIONS: dict[str, list[tuple[str, str, Callable[[str], Any], str]]] = {
         ("--noise-car", "noise_car", float, "noise scale of the car (m per step)"),
         ("--noise-quadrotor", "noise_quadrotor", float, "noise scale of the quadrotor (m per step)"),
     ],
+    "subgoal-dataset": [
+        ("--samples", "samples", int, "number of samples"),
+        ("--shard-size", "shard_size", int, "samples per shard (default 5000)"),
+        ("--trap-probability", "params.trap_probability", float, "probability of a U or L trap across the line to the goal"),
+    ],
 }
 
 #: Boolean switches: (flag, field, value when given, help).
@@ -84,7 +89,12 @@ def main(argv: Optional[list[str]] = None) -> int:
         config["seed"] = args.seed
     for key, value in vars(args).items():
         if key.startswith("cfg_") and value is not None:
-            config[key[4:]] = value
+            # "params.trap_probability" sets a field of a nested object.
+            *path, leaf = key[4:].split(".")
+            node = config
+            for part in path:
+                node = node.setdefault(part, {})
+            node[leaf] = value
     if args.address is not None and args.executor != "ray":
         print(f"error: --address is for the ray executor, not {args.executor!r}", file=sys.stderr)
         return 2

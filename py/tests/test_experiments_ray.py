@@ -58,6 +58,11 @@ def _pids_with(text: str) -> list[int]:
     return out
 
 
+def _results(done: str) -> list[str]:
+    """Stored results (a killed driver may also leave a hidden temporary ``.tmp-*.part``)."""
+    return sorted(n for n in os.listdir(done) if n.endswith(".json") and not n.startswith("."))
+
+
 @pytest.fixture(scope="module")
 def cluster() -> Iterator[str]:
     """A two-CPU Ray head on 127.0.0.1 (no dashboard) in a short temporary directory (Ray's
@@ -156,19 +161,19 @@ def test_a_killed_driver_resumes_without_recomputing(cluster: str, sequential: d
     try:
         deadline = time.monotonic() + 180
         while time.monotonic() < deadline and driver.poll() is None:
-            if os.path.isdir(done) and len([n for n in os.listdir(done) if n.endswith(".json")]) >= 2:
+            if os.path.isdir(done) and len(_results(done)) >= 2:
                 break
             time.sleep(0.02)
         assert driver.poll() is None, "the driver finished before it could be killed"
         driver.kill()
     finally:
         driver.wait(timeout=60)
-    finished = {n: os.stat(os.path.join(done, n)) for n in os.listdir(done) if n.endswith(".json")}
+    finished = {n: os.stat(os.path.join(done, n)) for n in _results(done)}
     assert 2 <= len(finished) < KILL_TASKS
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert f"{KILL_TASKS} tasks, {len(finished)} finished earlier, {KILL_TASKS - len(finished)} run now, 0 failed" in r.stdout
-    after = sorted(n for n in os.listdir(done) if n.endswith(".json") and not n.startswith("."))
+    after = _results(done)
     assert len(after) == KILL_TASKS, "one stored result per task"
     for n, st in finished.items():
         now = os.stat(os.path.join(done, n))

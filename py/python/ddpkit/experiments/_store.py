@@ -19,6 +19,7 @@ import hashlib
 import json
 import os
 import tempfile
+import time
 from typing import Optional
 
 
@@ -34,7 +35,7 @@ def task_key(experiment: str, spec: str) -> str:
 def write_atomic(path: str, text: str) -> None:
     """Writes ``text`` to ``path`` whole or not at all (temporary file, fsync, rename, fsync dir)."""
     directory = os.path.dirname(path) or "."
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".json", dir=directory)
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".part", dir=directory)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
@@ -69,8 +70,24 @@ class ResultStore:
         self.failed_dir = os.path.join(self.root, "failed")
         os.makedirs(self.done_dir, exist_ok=True)
         os.makedirs(self.failed_dir, exist_ok=True)
+        self._remove_stale_parts()
         #: Results written by this store object (a resumed sweep's count of recomputed tasks).
         self.writes = 0
+
+    def _remove_stale_parts(self, age_s: float = 3600.0) -> None:
+        """Deletes temporary files a killed driver left (never results: those are renamed into
+        place whole). Only old ones, so a second driver writing into the same store right now
+        keeps its own."""
+        now = time.time()
+        for d in (self.done_dir, self.failed_dir):
+            for n in os.listdir(d):
+                if n.startswith(".tmp-") and n.endswith(".part"):
+                    p = os.path.join(d, n)
+                    try:
+                        if now - os.stat(p).st_mtime > age_s:
+                            os.unlink(p)
+                    except OSError:
+                        pass
 
     def key(self, spec: str) -> str:
         return task_key(self.experiment, spec)

@@ -48,7 +48,10 @@ fn to_json<T: Serialize>(field: &str, value: &T) -> CoreResult<String> {
 }
 
 fn unknown(name: &str) -> CoreError {
-    invalid("name", format!("unknown experiment {name:?} (expected one of {})", NAMES.join(", ")))
+    invalid(
+        "name",
+        format!("unknown experiment {name:?} (expected one of {})", NAMES.join(", ")),
+    )
 }
 
 /// Prefixes the field of a crate error with the argument it came from (`config_json.episodes`).
@@ -108,7 +111,13 @@ struct RunInfo {
     seconds: f64,
 }
 
-fn aggregate_of(name: &str, config_json: &str, results: &[String], out_dir: &Path, info: &RunInfo) -> CoreResult<String> {
+fn aggregate_of(
+    name: &str,
+    config_json: &str,
+    results: &[String],
+    out_dir: &Path,
+    info: &RunInfo,
+) -> CoreResult<String> {
     std::fs::create_dir_all(out_dir).map_err(|e| invalid("out_dir", format!("{}: {e}", out_dir.display())))?;
     match name {
         "safe-table" => {
@@ -210,7 +219,11 @@ fn experiment_aggregate(
         workers,
         seconds,
     };
-    Ok(py.detach(|| guarded("results_json", || aggregate_of(&name, &config_json, &results_json, &out_dir, &info)))?)
+    Ok(py.detach(|| {
+        guarded("results_json", || {
+            aggregate_of(&name, &config_json, &results_json, &out_dir, &info)
+        })
+    })?)
 }
 
 /// Registers the functions.

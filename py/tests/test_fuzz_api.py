@@ -355,6 +355,18 @@ def test_slow_entry_points_reject_garbage(tmp_path: Any) -> None:
             ext.sim_run_scenario(text)
     with pytest.raises(ALLOWED):
         ext.subgoal_generate_dataset(str(tmp_path / "d"), samples=0)
+    # The experiments' task functions (their garbage is fuzzed like every function): an unknown
+    # name, a task that is not JSON or not the experiment's, results that do not fit.
+    for call in [
+        lambda: ext.experiment_tasks("nope", "{}"),
+        lambda: ext.experiment_tasks("safe-table", '{"episodes": -1}'),
+        lambda: ext.experiment_run_task("safe-table", "{"),
+        lambda: ext.experiment_run_task("safe-table", '{"robot": "point"}'),
+        lambda: ext.experiment_run_task("subgoal-dataset", '{"out_dir": "", "shard": 0}'),
+        lambda: ext.experiment_aggregate("safe-table", "{}", ["{}"], str(tmp_path / "a")),
+    ]:
+        with pytest.raises(ALLOWED):
+            call()
 
 
 def test_huge_broadcast_array_is_an_error_naming_the_argument() -> None:

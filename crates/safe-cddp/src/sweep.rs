@@ -276,7 +276,10 @@ pub fn aggregate(config: &TableConfig, outcomes: &[EpisodeOutcome]) -> Result<Ta
 }
 
 /// The car's methods and their episodes (Fig. 4 draws them), if the car was run.
-pub fn car_runs<'a>(config: &TableConfig, outcomes: &'a [EpisodeOutcome]) -> Option<(Vec<Method>, Vec<&'a [EpisodeOutcome]>)> {
+pub fn car_runs<'a>(
+    config: &TableConfig,
+    outcomes: &'a [EpisodeOutcome],
+) -> Option<(Vec<Method>, Vec<&'a [EpisodeOutcome]>)> {
     let mut chunks = outcomes.chunks(config.episodes.max(1));
     for &robot in &config.robots {
         let methods = config.methods(robot);
@@ -391,11 +394,38 @@ mod tests {
             let e = tasks(&c).unwrap_err().to_string();
             assert!(e.contains(field), "{e}");
         };
-        bad(TableConfig { episodes: 0, ..Default::default() }, "episodes");
-        bad(TableConfig { betas: vec![1.0], ..Default::default() }, "betas");
-        bad(TableConfig { noise_car: Some(f64::NAN), ..Default::default() }, "noise_car");
-        let t = EpisodeTask { robot: Robot::Point, noise: -1.0, method: Method::Cddp, episode: 0, seed: 0 };
+        bad(
+            TableConfig {
+                episodes: 0,
+                ..Default::default()
+            },
+            "episodes",
+        );
+        bad(
+            TableConfig {
+                betas: vec![1.0],
+                ..Default::default()
+            },
+            "betas",
+        );
+        bad(
+            TableConfig {
+                noise_car: Some(f64::NAN),
+                ..Default::default()
+            },
+            "noise_car",
+        );
+        let t = EpisodeTask {
+            robot: Robot::Point,
+            noise: -1.0,
+            method: Method::Cddp,
+            episode: 0,
+            seed: 0,
+        };
         assert!(run_task(&t).unwrap_err().to_string().contains("noise"));
-        assert!(aggregate(&TableConfig::default(), &[]).unwrap_err().to_string().contains("results"));
+        assert!(aggregate(&TableConfig::default(), &[])
+            .unwrap_err()
+            .to_string()
+            .contains("results"));
     }
 }

@@ -1778,11 +1778,11 @@ def experiment_aggregate(
     config_json: str,
     results_json: list[str],
     out_dir: Union[str, os.PathLike[str]],
-    command: str = "",
+    command: str = ...,
     workers: int = 1,
     seconds: float = 0.0,
 ) -> str:
     """Aggregates the results (JSON text, in task order) of experiment ``name`` into the files its
     binary writes, in ``out_dir`` (created if missing; each file whole or absent), and returns the
     text the binary prints. ``command``, ``workers`` and ``seconds`` go where the binary records
-    its command line, thread count and wall time."""
+    its command line (default empty), thread count and wall time."""

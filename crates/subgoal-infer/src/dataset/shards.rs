@@ -310,10 +310,7 @@ pub(super) fn write_shard(
         ("samples", n.to_string()),
         ("resolution", RESOLUTION.to_string()),
         ("map_cells", MAP_CELLS.to_string()),
-        (
-            "subgoal_steps",
-            serde_json::json!(params.subgoal_steps).to_string(),
-        ),
+        ("subgoal_steps", serde_json::json!(params.subgoal_steps).to_string()),
         ("frame", FRAME.to_string()),
         ("params", params_json(params).to_string()),
     ];

@@ -201,9 +201,24 @@ impl ShardWriter {
         let n = task.samples as usize;
         let mut costmaps = vec![0u8; n * MAP_LEN];
         let mut infos = vec![SampleInfo::default(); n];
-        fill(&self.pool, &self.proto, task.seed, task.first_index, &mut costmaps, &mut infos, progress);
+        fill(
+            &self.pool,
+            &self.proto,
+            task.seed,
+            task.first_index,
+            &mut costmaps,
+            &mut infos,
+            progress,
+        );
         let file = shard_file_name(task.shard);
-        let (bytes, hash) = write_shard(&dir.join(&file), task.seed, &task.params, task.first_index, &costmaps, &infos)?;
+        let (bytes, hash) = write_shard(
+            &dir.join(&file),
+            task.seed,
+            &task.params,
+            task.first_index,
+            &costmaps,
+            &infos,
+        )?;
         Ok(ShardResult {
             file,
             first_index: task.first_index,
@@ -235,7 +250,11 @@ pub fn aggregate(config: &DatasetConfig, results: &[ShardResult]) -> Result<Data
     if results.len() != tasks.len() {
         return Err(Error::invalid(
             "results",
-            format!("the configuration has {} shards, got {} results", tasks.len(), results.len()),
+            format!(
+                "the configuration has {} shards, got {} results",
+                tasks.len(),
+                results.len()
+            ),
         )
         .into());
     }
@@ -246,7 +265,10 @@ pub fn aggregate(config: &DatasetConfig, results: &[ShardResult]) -> Result<Data
         if r.file != file || r.first_index != t.first_index || r.samples != t.samples {
             return Err(Error::invalid(
                 format!("results[{k}]"),
-                format!("describes {} ({} samples from {}), expected {file}", r.file, r.samples, r.first_index),
+                format!(
+                    "describes {} ({} samples from {}), expected {file}",
+                    r.file, r.samples, r.first_index
+                ),
             )
             .into());
         }

@@ -135,7 +135,14 @@ class SweepSummary:
     ran: int
     #: ``(specification, error)`` of each task that failed.
     failures: list[tuple[str, str]]
+    #: Wall time of running the tasks (after the executor started).
     seconds: float
+    #: Wall time of starting the executor (processes, a Ray connection or local cluster).
+    startup_seconds: float = 0.0
+    #: The tasks' own run times, summed (measured inside the workers).
+    task_seconds: float = 0.0
+    #: Tasks that ran at once.
+    workers: int = 1
     #: What the aggregation printed (the binary's table or summary); empty when tasks failed.
     text: str = ""
     #: The results (JSON text) in task order; ``None`` for failed tasks.
@@ -189,13 +196,16 @@ def run_sweep(
     todo = [idx[0] for idx in todo_keys.values()]
     skipped = sum(r is not None for r in results)
     failures: list[tuple[str, str]] = []
-    start = time.monotonic()
+    started = time.monotonic()
     ex.start()
+    start = time.monotonic()
+    task_seconds = 0.0
     try:
         bar = progress_bar(len(specs), f"{name} ({ex.name})", initial=skipped, enabled=progress)
         try:
-            for j, ok, text in ex.run(exp.name, [specs[i] for i in todo]):
+            for j, ok, text, secs in ex.run(exp.name, [specs[i] for i in todo]):
                 i = todo[j]
+                task_seconds += secs
                 if ok:
                     store.put(specs[i], text)
                     for k in todo_keys[store.key(specs[i])]:
@@ -210,7 +220,20 @@ def run_sweep(
     finally:
         ex.close()
     seconds = time.monotonic() - start
-    summary = SweepSummary(exp.name, ex.name, out_dir, len(specs), skipped, store.writes, failures, seconds, results=results)
+    summary = SweepSummary(
+        exp.name,
+        ex.name,
+        out_dir,
+        len(specs),
+        skipped,
+        store.writes,
+        failures,
+        seconds,
+        startup_seconds=start - started,
+        task_seconds=task_seconds,
+        workers=ex.workers,
+        results=results,
+    )
     if failures:
         report = [{"spec": json.loads(s), "error": e} for s, e in failures]
         write_atomic(os.path.join(out_dir, "failed.json"), json.dumps(report, indent=2))

@@ -1,7 +1,8 @@
 """The executors: one interface, three back ends (after nuplan-devkit's ``WorkerPool``).
 
 An executor runs task specifications (JSON text) of one experiment and yields ``(index, ok,
-text)`` as tasks finish, in any order: ``text`` is the result (JSON) when ``ok``, else the error.
+text, seconds)`` as tasks finish, in any order: ``text`` is the result (JSON) when ``ok``, else
+the error; ``seconds`` the task's own run time (0 when its worker was lost).
 A task that raises is reported and does not stop the others; a worker process that dies is
 replaced and its tasks run again (at most ``max_retries`` times), by Ray itself for the Ray back
 end. Workers run one task at a time on one thread (``RAYON_NUM_THREADS=1``, Ray ``num_cpus=1``),
@@ -10,10 +11,12 @@ so a node runs as many tasks as it has cores and is not oversubscribed.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import multiprocessing
 import os
 import socket
+import time
 from abc import ABC, abstractmethod
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -29,18 +32,20 @@ class ExperimentError(RuntimeError):
 EXECUTORS = ("sequential", "processes", "ray")
 
 
-def ddpkit_task(experiment: str, spec: str, threads: Optional[int] = None) -> tuple[bool, str]:
-    """Runs one task; returns ``(True, result)`` or ``(False, error)``, never raises for a task
-    error (so one bad task cannot stop a sweep). ``threads`` sets ``RAYON_NUM_THREADS`` in a
-    worker before the extension first starts its thread pool."""
+def ddpkit_task(experiment: str, spec: str, threads: Optional[int] = None) -> tuple[bool, str, float]:
+    """Runs one task; returns ``(True, result, seconds)`` or ``(False, error, seconds)``, never
+    raises for a task error (so one bad task cannot stop a sweep). ``seconds`` is the task's own
+    run time (what the executors' overhead is measured against). ``threads`` sets
+    ``RAYON_NUM_THREADS`` in a worker before the extension first starts its thread pool."""
     if threads is not None:
         os.environ["RAYON_NUM_THREADS"] = str(threads)
     from ddpkit._ddpkit import experiment_run_task
 
+    start = time.perf_counter()
     try:
-        return True, experiment_run_task(experiment, spec)
+        return True, experiment_run_task(experiment, spec), time.perf_counter() - start
     except Exception as e:  # noqa: BLE001 - every task error is reported with its specification
-        return False, f"{type(e).__name__}: {e}"
+        return False, f"{type(e).__name__}: {e}", time.perf_counter() - start
 
 
 def _init_worker(threads: int) -> None:
@@ -64,8 +69,8 @@ class Executor(ABC):
         """Tasks that run at once."""
 
     @abstractmethod
-    def run(self, experiment: str, specs: Sequence[str]) -> Iterator[tuple[int, bool, str]]:
-        """Runs every specification; yields ``(index, ok, text)`` as each finishes."""
+    def run(self, experiment: str, specs: Sequence[str]) -> Iterator[tuple[int, bool, str, float]]:
+        """Runs every specification; yields ``(index, ok, text, seconds)`` as each finishes."""
 
     def close(self) -> None:
         """Stops what :meth:`start` started."""
@@ -87,10 +92,9 @@ class SequentialExecutor(Executor):
     def workers(self) -> int:
         return 1
 
-    def run(self, experiment: str, specs: Sequence[str]) -> Iterator[tuple[int, bool, str]]:
+    def run(self, experiment: str, specs: Sequence[str]) -> Iterator[tuple[int, bool, str, float]]:
         for i, spec in enumerate(specs):
-            ok, text = ddpkit_task(experiment, spec)
-            yield i, ok, text
+            yield (i, *ddpkit_task(experiment, spec))
 
 
 class ProcessExecutor(Executor):
@@ -122,12 +126,12 @@ class ProcessExecutor(Executor):
     def start(self) -> None:
         self._pool = self._new_pool()
 
-    def run(self, experiment: str, specs: Sequence[str]) -> Iterator[tuple[int, bool, str]]:
+    def run(self, experiment: str, specs: Sequence[str]) -> Iterator[tuple[int, bool, str, float]]:
         if self._pool is None:
             self.start()
         todo = list(range(len(specs)))[::-1]
         attempts = [0] * len(specs)
-        pending: dict[Future[tuple[bool, str]], int] = {}
+        pending: dict[Future[tuple[bool, str, float]], int] = {}
         window = 4 * self._workers
         while todo or pending:
             assert self._pool is not None
@@ -140,24 +144,24 @@ class ProcessExecutor(Executor):
             for f in done:
                 i = pending.pop(f)
                 try:
-                    ok, text = f.result()
+                    ok, text, seconds = f.result()
                 except BrokenProcessPool:
                     broken = True
                     if attempts[i] > self.max_retries:
-                        yield i, False, f"a worker process died {attempts[i]} times running this task"
+                        yield i, False, f"a worker process died {attempts[i]} times running this task", 0.0
                     else:
                         todo.append(i)
                     continue
                 except Exception as e:  # noqa: BLE001 - e.g. a result that cannot be unpickled
-                    yield i, False, f"{type(e).__name__}: {e}"
+                    yield i, False, f"{type(e).__name__}: {e}", 0.0
                     continue
-                yield i, ok, text
+                yield i, ok, text, seconds
             if broken:
                 # A dead worker breaks the whole pool: every task still in it is run again.
                 for f, i in pending.items():
                     f.cancel()
                     if attempts[i] > self.max_retries:
-                        yield i, False, f"a worker process died {attempts[i]} times running this task"
+                        yield i, False, f"a worker process died {attempts[i]} times running this task", 0.0
                     else:
                         todo.append(i)
                 pending.clear()
@@ -181,6 +185,25 @@ def _check_reachable(address: str, timeout: float = 5.0) -> None:
             pass
     except OSError as e:
         raise ExperimentError(f"executor 'ray': cannot reach the Ray cluster at address {address!r}: {e}") from None
+
+
+@contextlib.contextmanager
+def _loopback_kept(ray: Any, address: Optional[str]) -> Iterator[None]:
+    """Ray rewrites a ``127.0.0.1`` bootstrap address into the machine's outward IP (its
+    ``resolve_ip_for_localhost``), which a head started with ``--node-ip-address 127.0.0.1``
+    does not listen on. For a loopback address the rewrite is switched off while connecting
+    (a private Ray function: left alone if a Ray version lacks it)."""
+    host = (address or "").rpartition(":")[0]
+    services = getattr(getattr(ray, "_private", None), "services", None)
+    original = getattr(services, "resolve_ip_for_localhost", None)
+    if host not in ("127.0.0.1", "localhost") or original is None:
+        yield
+        return
+    services.resolve_ip_for_localhost = lambda h: h
+    try:
+        yield
+    finally:
+        services.resolve_ip_for_localhost = original
 
 
 class RayExecutor(Executor):
@@ -221,9 +244,13 @@ class RayExecutor(Executor):
                 kwargs["num_cpus"] = self._requested
         else:
             kwargs["address"] = address
+            if address.rpartition(":")[0] in ("127.0.0.1", "localhost"):
+                # This driver joins the head's node, which a loopback head names 127.0.0.1.
+                kwargs["_node_ip_address"] = "127.0.0.1"
         if not ray.is_initialized():
             try:
-                ray.init(**kwargs)
+                with _loopback_kept(ray, address):
+                    ray.init(**kwargs)
             except Exception as e:  # noqa: BLE001 - ConnectionError, RuntimeError, ValueError by version
                 raise ExperimentError(f"executor 'ray': cannot connect to Ray at address {address!r}: {e}") from None
             self._started = True
@@ -231,7 +258,7 @@ class RayExecutor(Executor):
         self._workers = max(1, int(ray.cluster_resources().get("CPU", 1)))
         self._remote = ray.remote(ddpkit_task).options(num_cpus=1, max_retries=self.max_retries, retry_exceptions=False)
 
-    def run(self, experiment: str, specs: Sequence[str]) -> Iterator[tuple[int, bool, str]]:
+    def run(self, experiment: str, specs: Sequence[str]) -> Iterator[tuple[int, bool, str, float]]:
         if self._ray is None:
             self.start()
         ray = self._ray
@@ -248,11 +275,11 @@ class RayExecutor(Executor):
             for ref in done:
                 i = pending.pop(ref)
                 try:
-                    ok, text = ray.get(ref)
+                    ok, text, seconds = ray.get(ref)
                 except Exception as e:  # noqa: BLE001 - a worker lost more than max_retries times
-                    yield i, False, f"{type(e).__name__}: {e}"
+                    yield i, False, f"{type(e).__name__}: {e}", 0.0
                     continue
-                yield i, ok, text
+                yield i, ok, text, seconds
 
     def close(self) -> None:
         if self._started and self._ray is not None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import secrets
 import shutil
 import signal
 import socket
@@ -58,19 +59,95 @@ def _pids_with(text: str) -> list[int]:
     return out
 
 
+def _listening(pids: list[int]) -> set[tuple[str, int]]:
+    """TCP addresses ``(ip, port)`` the processes ``pids`` listen on (from /proc/net/tcp{,6})."""
+    inodes = set()
+    for pid in pids:
+        try:
+            for fd in os.listdir(f"/proc/{pid}/fd"):
+                try:
+                    link = os.readlink(f"/proc/{pid}/fd/{fd}")
+                except OSError:
+                    continue
+                if link.startswith("socket:["):
+                    inodes.add(link[len("socket:[") : -1])
+        except OSError:
+            continue
+    out = set()
+    for table, width in (("/proc/net/tcp", 8), ("/proc/net/tcp6", 32)):
+        try:
+            with open(table, encoding="ascii") as f:
+                rows = f.read().splitlines()[1:]
+        except OSError:
+            continue
+        for row in rows:
+            cols = row.split()
+            if cols[3] != "0A" or cols[9] not in inodes:  # 0A: LISTEN
+                continue
+            ip_hex, port_hex = cols[1].split(":")
+            raw = bytes.fromhex(ip_hex)
+            if width == 8:
+                ip = socket.inet_ntop(socket.AF_INET, raw[::-1])
+            else:
+                words = b"".join(raw[i : i + 4][::-1] for i in range(0, 16, 4))
+                ip = socket.inet_ntop(socket.AF_INET6, words)
+                if ip.startswith("::ffff:"):
+                    ip = ip[len("::ffff:") :]
+            out.add((ip, int(port_hex, 16)))
+    return out
+
+
 def _results(done: str) -> list[str]:
     """Stored results (a killed driver may also leave a hidden temporary ``.tmp-*.part``)."""
     return sorted(n for n in os.listdir(done) if n.endswith(".json") and not n.startswith("."))
+
+
+def _reset_ray_auth_cache() -> None:
+    """Ray caches its configuration and token in the process (C++ ``RayConfig`` and
+    ``AuthenticationTokenLoader``); an earlier ``ray.init`` in this pytest process would keep
+    the old mode and token. Refreshed the way Ray's own tests do (private: skipped if absent)."""
+    raylet = getattr(ray, "_raylet", None)
+    config = getattr(raylet, "Config", None)
+    loader = getattr(raylet, "AuthenticationTokenLoader", None)
+    if config is not None:
+        config.initialize("")
+    if loader is not None:
+        loader.instance().reset_cache()
 
 
 @pytest.fixture(scope="module")
 def cluster() -> Iterator[str]:
     """A two-CPU Ray head on 127.0.0.1 (no dashboard) in a short temporary directory (Ray's
     socket paths must stay under 107 bytes); its processes are stopped at the end, by pid, even
-    when a test fails, so other Ray clusters on the machine are left alone."""
+    when a test fails, so other Ray clusters on the machine are left alone.
+
+    Authentication is explicit: token mode with a fresh token in the temporary directory, for
+    the head and for the drivers (this process and the ones the tests start). Left to Ray,
+    ``ray start --head`` switches token authentication on whenever ``~/.ray/auth_token`` exists
+    (any earlier ``ray.init()`` of a local cluster writes it), while a driver given an explicit
+    address never does: it then fails with ``InvalidAuthToken`` and "Failed to connect"."""
     ray_cli = shutil.which("ray", path=os.path.dirname(sys.executable)) or shutil.which("ray")
     assert ray_cli, "the `ray` command is missing: pip install 'ddpkit[ray]'"
     temp = tempfile.mkdtemp(prefix="ray", dir="/tmp")
+    token_path = os.path.join(temp, "auth_token")
+    with open(token_path, "w", encoding="utf-8") as f:
+        f.write(secrets.token_hex(32))
+    os.chmod(token_path, 0o600)
+    # RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0: the single-node mode Ray uses on macOS and Windows.
+    # Otherwise Ray replaces 127.0.0.1 (node address, bootstrap address) by the machine's outward
+    # IP and its gRPC servers listen on every interface; with it, the node is 127.0.0.1 and the
+    # servers listen there only (checked below). Ray reads it when imported: this process is
+    # told through the module constant, the head and the drivers the tests start through the
+    # environment.
+    local = {"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN_PATH": token_path, "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
+    saved = {k: os.environ.get(k) for k in (*local, "RAY_AUTH_TOKEN", "RAY_ADDRESS")}
+    for k in ("RAY_AUTH_TOKEN", "RAY_ADDRESS"):
+        os.environ.pop(k, None)
+    os.environ.update(local)
+    _reset_ray_auth_cache()
+    constants = ray._private.ray_constants
+    cluster_mode = constants.ENABLE_RAY_CLUSTER
+    constants.ENABLE_RAY_CLUSTER = False
     port = _free_port()
     env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0")
     cmd = [
@@ -78,7 +155,12 @@ def cluster() -> Iterator[str]:
         "--port", str(port), "--temp-dir", temp, "--include-dashboard", "false", "--disable-usage-stats",
     ]
     try:
-        subprocess.run(cmd, check=True, timeout=180, env=env, capture_output=True)
+        r = subprocess.run(cmd, timeout=180, env=env, capture_output=True, text=True)
+        assert r.returncode == 0, f"ray start failed:\n{r.stdout}\n{r.stderr}"
+        listening = _listening(_pids_with(temp))
+        assert ("127.0.0.1", port) in listening, f"the head does not listen on 127.0.0.1:{port}: {listening}"
+        outward = [a for a in listening if a[0] != "127.0.0.1"]
+        assert not outward, f"the head listens beyond 127.0.0.1: {outward}"
         yield f"127.0.0.1:{port}"
     finally:
         for sig in (signal.SIGTERM, signal.SIGKILL):
@@ -91,6 +173,13 @@ def cluster() -> Iterator[str]:
             while _pids_with(temp) and time.monotonic() < deadline:
                 time.sleep(0.2)
         shutil.rmtree(temp, ignore_errors=True)
+        constants.ENABLE_RAY_CLUSTER = cluster_mode
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+        _reset_ray_auth_cache()
 
 
 @pytest.fixture(scope="module")

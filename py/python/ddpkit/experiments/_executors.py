@@ -11,7 +11,6 @@ so a node runs as many tasks as it has cores and is not oversubscribed.
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import multiprocessing
 import os
@@ -187,25 +186,6 @@ def _check_reachable(address: str, timeout: float = 5.0) -> None:
         raise ExperimentError(f"executor 'ray': cannot reach the Ray cluster at address {address!r}: {e}") from None
 
 
-@contextlib.contextmanager
-def _loopback_kept(ray: Any, address: Optional[str]) -> Iterator[None]:
-    """Ray rewrites a ``127.0.0.1`` bootstrap address into the machine's outward IP (its
-    ``resolve_ip_for_localhost``), which a head started with ``--node-ip-address 127.0.0.1``
-    does not listen on. For a loopback address the rewrite is switched off while connecting
-    (a private Ray function: left alone if a Ray version lacks it)."""
-    host = (address or "").rpartition(":")[0]
-    services = getattr(getattr(ray, "_private", None), "services", None)
-    original = getattr(services, "resolve_ip_for_localhost", None)
-    if host not in ("127.0.0.1", "localhost") or original is None:
-        yield
-        return
-    services.resolve_ip_for_localhost = lambda h: h
-    try:
-        yield
-    finally:
-        services.resolve_ip_for_localhost = original
-
-
 class RayExecutor(Executor):
     """Runs the tasks on a Ray cluster: ``address`` ``"auto"`` (the cluster ``ray start`` made on
     this machine), ``"host:port"`` of a head node, ``"ray://host:port"`` (Ray client) or ``None``
@@ -244,15 +224,15 @@ class RayExecutor(Executor):
                 kwargs["num_cpus"] = self._requested
         else:
             kwargs["address"] = address
-            if address.rpartition(":")[0] in ("127.0.0.1", "localhost"):
-                # This driver joins the head's node, which a loopback head names 127.0.0.1.
-                kwargs["_node_ip_address"] = "127.0.0.1"
         if not ray.is_initialized():
             try:
-                with _loopback_kept(ray, address):
-                    ray.init(**kwargs)
+                ray.init(**kwargs)
             except Exception as e:  # noqa: BLE001 - ConnectionError, RuntimeError, ValueError by version
-                raise ExperimentError(f"executor 'ray': cannot connect to Ray at address {address!r}: {e}") from None
+                raise ExperimentError(
+                    f"executor 'ray': cannot connect to Ray at address {address!r}: {e} (a cluster with token "
+                    "authentication needs RAY_AUTH_MODE=token and its token in RAY_AUTH_TOKEN or "
+                    "RAY_AUTH_TOKEN_PATH; Ray's log says InvalidAuthToken when they are missing)"
+                ) from None
             self._started = True
         self._ray = ray
         self._workers = max(1, int(ray.cluster_resources().get("CPU", 1)))

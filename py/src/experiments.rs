@@ -11,6 +11,7 @@
 //! |---|---|---|
 //! | `safe-table` | [`safe_cddp::sweep`] | one MPC episode of Table I (Alcan and Kyrki 2022) |
 //! | `subgoal-dataset` | [`subgoal_infer::dataset::sweep`] | one shard of the DDPEN sub-goal dataset (Gamayunov et al. 2023), written by the task into `out_dir` |
+//! | `idnp` | [`idnp::sweep`] | one initial condition of the IDNP experiment (Richter et al. 2023), every method |
 //!
 //! Running a task releases the GIL. Every error is a `ddpkit.DdpError` naming the argument (and,
 //! inside it, the field); a panic inside a task is caught and reported as an error too, so an
@@ -37,7 +38,15 @@ fn ds(arg: &str, e: DatasetError) -> CoreError {
 }
 
 /// The experiments, by the names the Python CLI uses.
-const NAMES: [&str; 2] = ["safe-table", "subgoal-dataset"];
+const NAMES: [&str; 3] = ["safe-table", "subgoal-dataset", "idnp"];
+
+/// An IDNP error as a ddpkit error naming `arg.field` (or `arg` for a numerical failure).
+fn idnp_err(arg: &str, e: idnp::Error) -> CoreError {
+    match e {
+        idnp::Error::Invalid { field, reason } => invalid(format!("{arg}.{field}"), reason),
+        other => invalid(arg, other.to_string()),
+    }
+}
 
 fn parse<T: DeserializeOwned>(field: &str, text: &str) -> CoreResult<T> {
     serde_json::from_str(text).map_err(|e| invalid(field, format!("not a valid specification: {e}")))
@@ -71,6 +80,11 @@ fn tasks_of(name: &str, config_json: &str) -> CoreResult<Vec<String>> {
             let tasks = dataset::tasks(&config).map_err(|e| ds("config_json", e))?;
             tasks.iter().map(|t| to_json("spec", t)).collect()
         }
+        "idnp" => {
+            let config: idnp::sweep::IdnpConfig = parse("config_json", config_json)?;
+            let tasks = idnp::sweep::tasks(&config).map_err(|e| idnp_err("config_json", e))?;
+            tasks.iter().map(|t| to_json("spec", t)).collect()
+        }
         _ => Err(unknown(name)),
     }
 }
@@ -85,6 +99,11 @@ fn run_of(name: &str, spec_json: &str) -> CoreResult<String> {
         "subgoal-dataset" => {
             let task: dataset::ShardTask = parse("spec_json", spec_json)?;
             let result = dataset::run_task(&task).map_err(|e| ds("spec_json", e))?;
+            to_json("result", &result)
+        }
+        "idnp" => {
+            let task: idnp::sweep::CaseTask = parse("spec_json", spec_json)?;
+            let result = idnp::sweep::run_task(&task).map_err(|e| idnp_err("spec_json", e))?;
             to_json("result", &result)
         }
         _ => Err(unknown(name)),
@@ -152,6 +171,19 @@ fn aggregate_of(
                 s.samples as f64 / info.seconds.max(1e-9),
                 info.workers,
             ))
+        }
+        "idnp" => {
+            // The binary's `--json` file (its figure needs the `cli` feature: binary only).
+            let config: idnp::sweep::IdnpConfig = parse("config_json", config_json)?;
+            let cases: Vec<idnp::experiment::CaseResult> = parse_all(results)?;
+            let result = idnp::sweep::aggregate(&config, &cases).map_err(|e| idnp_err("results_json", e))?;
+            let path = out_dir.join("experiment.json");
+            let json = serde_json::to_string_pretty(&result)
+                .map_err(|e| invalid("results_json", format!("cannot be written as JSON: {e}")))?;
+            write_text(&path, &json)?;
+            let mut text = idnp::sweep::report(&config, &result);
+            text.push_str(&format!("results: {}\n", path.display()));
+            Ok(text)
         }
         _ => Err(unknown(name)),
     }

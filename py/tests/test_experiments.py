@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 from ddpkit import experiments
-from ddpkit.experiments import ExperimentError, ResultStore, run_sweep
+from ddpkit.experiments import ExperimentError, ResultStore, StoreWriter, run_sweep
 
 from _experiments_util import binary, run_binary, table_without_run_fields, tree_bytes
 
@@ -146,3 +146,29 @@ def test_store_ignores_a_file_that_holds_another_specification(tmp_path: Any) ->
     )
     assert store.get('{"a": 2}') is None
     assert experiments.task_key("safe-table", "x") != experiments.task_key("subgoal-dataset", "x")
+
+
+def test_store_writer_writes_every_result_in_batches_and_damaged_files_are_run_again(tmp_path: Any) -> None:
+    store = ResultStore(str(tmp_path), "safe-table")
+    writer = StoreWriter(store)
+    for n in range(50):
+        writer.put(f'{{"a": {n}}}', f'{{"r": {n}}}')
+    writer.put_failure('{"b": 1}', "ValueError: no")
+    writer.close()
+    assert store.writes == 50
+    assert [store.get(f'{{"a": {n}}}') for n in range(50)] == [f'{{"r": {n}}}' for n in range(50)]
+    assert len(store.finished_keys()) == 50
+    assert not [n for n in os.listdir(store.done_dir) if n.endswith(".part")], "no temporary file left"
+    assert os.listdir(store.failed_dir) == [store.key('{"b": 1}') + ".json"]
+    # A result changed after it was written no longer matches its checksum: not trusted.
+    path = os.path.join(store.done_dir, store.key('{"a": 3}') + ".json")
+    with open(path, encoding="utf-8") as f:
+        entry = json.load(f)
+    entry["result"] = '{"r": 4}'
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(entry, f)
+    assert store.get('{"a": 3}') is None
+    # A truncated file (a crash before the data reached the disk) is not a result either.
+    with open(os.path.join(store.done_dir, store.key('{"a": 5}') + ".json"), "r+", encoding="utf-8") as f:
+        f.truncate(10)
+    assert store.get('{"a": 5}') is None

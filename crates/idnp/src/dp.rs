@@ -29,7 +29,7 @@
 //! | `rho_c`, `delta_c` of (2) | [`DpSettings::collision_weight`], [`DpSettings::collision_distance`] |
 //! | `w_phi` | [`DpSettings::terminal_weight`] |
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{nonnegative, positive, Error, Result};
 use crate::quadtree::QuadGrid;
@@ -314,7 +314,7 @@ impl Dp<'_> {
 }
 
 /// Grid statistics summed over the time indices.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct GridSize {
     /// Leaves (cells of the partition).
     pub cells: usize,

@@ -47,7 +47,7 @@ from ddpkit.experiments._executors import (
     make_executor,
 )
 from ddpkit.experiments._progress import progress_bar
-from ddpkit.experiments._store import ResultStore, task_key, write_atomic
+from ddpkit.experiments._store import ResultStore, StoreWriter, task_key, write_atomic
 
 __all__ = [
     "EXECUTORS",
@@ -58,6 +58,7 @@ __all__ = [
     "ProcessExecutor",
     "RayExecutor",
     "ResultStore",
+    "StoreWriter",
     "SequentialExecutor",
     "SweepSummary",
     "ddpkit_task",
@@ -92,6 +93,7 @@ EXPERIMENTS: dict[str, Experiment] = {
             "DDPEN sub-goal dataset (Gamayunov et al. 2023): one task per safetensors shard",
             writes_files=True,
         ),
+        Experiment("idnp", "idnp-experiment", "IDNP experiment (Richter et al. 2023): one task per initial condition, every method"),
     ]
 }
 
@@ -200,6 +202,7 @@ def run_sweep(
     ex.start()
     start = time.monotonic()
     task_seconds = 0.0
+    writer = StoreWriter(store)
     try:
         bar = progress_bar(len(specs), f"{name} ({ex.name})", initial=skipped, enabled=progress)
         try:
@@ -207,18 +210,21 @@ def run_sweep(
                 i = todo[j]
                 task_seconds += secs
                 if ok:
-                    store.put(specs[i], text)
+                    writer.put(specs[i], text)
                     for k in todo_keys[store.key(specs[i])]:
                         results[k] = text
                 else:
-                    store.put_failure(specs[i], text)
+                    writer.put_failure(specs[i], text)
                     failures.append((specs[i], text))
                     print(f"task failed: {specs[i]}\n  {text}", file=sys.stderr)
                 bar.update(1)
         finally:
             bar.close()
     finally:
-        ex.close()
+        try:
+            writer.close()
+        finally:
+            ex.close()
     seconds = time.monotonic() - start
     summary = SweepSummary(
         exp.name,

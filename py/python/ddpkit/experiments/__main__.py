@@ -45,11 +45,20 @@ OPTIONS: dict[str, list[tuple[str, str, Callable[[str], Any], str]]] = {
         ("--shard-size", "shard_size", int, "samples per shard (default 5000)"),
         ("--trap-probability", "params.trap_probability", float, "probability of a U or L trap across the line to the goal"),
     ],
+    "idnp": [
+        ("--n", "n", int, "number of initial conditions (default 200)"),
+        ("--iterations", "iterations", int, "iterations of the IDNP loop per case (default 15)"),
+        ("--optimizer-iterations", "optimizer_iterations", int, "iterations of the NLP alone (default 400)"),
+    ],
 }
 
 #: Boolean switches: (flag, field, value when given, help).
 SWITCHES: dict[str, list[tuple[str, str, bool, str]]] = {
     "safe-table": [("--no-baselines", "baselines", False, "skip the car's fixed-gain and open-loop baselines")],
+    "idnp": [
+        ("--uniform", "uniform", True, "also run fixed-grid IDNP on the uniform grid that resolves the passage"),
+        ("--no-max-level-penalty", "no_max_level_penalty", True, "pure Algorithm 1: no penalty adaptation at the deepest level"),
+    ],
 }
 
 

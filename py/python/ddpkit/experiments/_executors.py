@@ -251,7 +251,12 @@ class RayExecutor(Executor):
             while todo and len(pending) < window:
                 i = todo.pop()
                 pending[self._remote.remote(experiment, specs[i], 1)] = i
-            done, _ = ray.wait(list(pending), num_returns=1)
+            refs = list(pending)
+            done, rest = ray.wait(refs, num_returns=1)
+            if rest:
+                # Everything else already finished, in the same round trip to the driver.
+                more, _ = ray.wait(rest, num_returns=len(rest), timeout=0)
+                done = done + more
             for ref in done:
                 i = pending.pop(ref)
                 try:

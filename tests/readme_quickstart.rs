@@ -11,4 +11,7 @@ fn readme_rust_quick_start_runs() {
     if readme::BLOCKS > 1 {
         readme::block_1().expect("the README's second Rust block runs");
     }
+    if readme::BLOCKS > 2 {
+        readme::block_2().expect("the README's third Rust block runs");
+    }
 }

@@ -397,7 +397,12 @@ impl BezierCurve {
 
     /// The `order`-th derivative `d^order B / dt^order` at `t` (`order = 0` is `eval`).
     #[pyo3(signature = (t, order = 1))]
-    fn derivative<'py>(&self, py: Python<'py>, t: &Bound<'py, PyAny>, order: i64) -> PyResult<Bound<'py, PyAny>> {
+    fn derivative<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] order: i64,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let order = count("order", order, 0)?;
         let p = params_arg(t, "t")?;
         match (&self.curve, order) {
@@ -543,7 +548,12 @@ impl BezierCurve {
 
     /// `n` parameters (ends included) splitting the curve into `n - 1` pieces of equal length.
     #[pyo3(signature = (n, accuracy = 1e-9))]
-    fn resample_uniform<'py>(&self, py: Python<'py>, n: i64, accuracy: f64) -> PyResult<Bound<'py, PyAny>> {
+    fn resample_uniform<'py>(
+        &self,
+        py: Python<'py>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] n: i64,
+        accuracy: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let (n, acc) = (count("n", n, 0)?, accuracy_arg(accuracy)?);
         check_allocation("n", n, 3 * std::mem::size_of::<f64>())?;
         let ts = py.detach(|| on_curve!(&self.curve, c => c.resample_uniform(n, acc)));
@@ -552,7 +562,12 @@ impl BezierCurve {
 
     /// The points at `resample_uniform(n, accuracy)`, shape `(n, 2)`.
     #[pyo3(signature = (n, accuracy = 1e-9))]
-    fn resample_points<'py>(&self, py: Python<'py>, n: i64, accuracy: f64) -> PyResult<Bound<'py, PyAny>> {
+    fn resample_points<'py>(
+        &self,
+        py: Python<'py>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] n: i64,
+        accuracy: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let (n, acc) = (count("n", n, 0)?, accuracy_arg(accuracy)?);
         check_allocation("n", n, 3 * std::mem::size_of::<Point>())?;
         let pts = py.detach(|| on_curve!(&self.curve, c => c.resample_points(n, acc)));
@@ -810,7 +825,7 @@ impl BezierSpline {
     }
 
     /// Segment `index` (negative indices count from the end) as a cubic `Bezier`.
-    fn segment(&self, index: i64) -> PyResult<BezierCurve> {
+    fn segment(&self, #[pyo3(from_py_with = crate::convert::int_i64)] index: i64) -> PyResult<BezierCurve> {
         let n = self.inner.len() as i64;
         let i = if index < 0 { index + n } else { index };
         if !(0..n).contains(&i) {
@@ -867,7 +882,10 @@ impl BezierSpline {
 
     /// Sum of `|curvature|` at `samples_per_segment` parameters uniform in each segment's `t`.
     #[pyo3(signature = (samples_per_segment = 100))]
-    fn curvature_sum_param(&self, samples_per_segment: i64) -> PyResult<f64> {
+    fn curvature_sum_param(
+        &self,
+        #[pyo3(from_py_with = crate::convert::int_i64)] samples_per_segment: i64,
+    ) -> PyResult<f64> {
         let m = count("samples_per_segment", samples_per_segment, 2)?;
         Ok(self.inner.curvature_sum_param(m))
     }
@@ -1225,7 +1243,12 @@ impl BezierTrajectory {
     /// Samples at `T_k = k dt`, `k = 0..=steps` (default: enough steps to cover the duration),
     /// with the heading unwrapped (continuous).
     #[pyo3(signature = (dt, steps = None))]
-    fn sample_grid(&self, py: Python<'_>, dt: f64, steps: Option<i64>) -> PyResult<TrajectorySamples> {
+    fn sample_grid(
+        &self,
+        py: Python<'_>,
+        dt: f64,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] steps: Option<i64>,
+    ) -> PyResult<TrajectorySamples> {
         let n = steps_arg(&self.inner, dt, steps)?;
         let s = py.detach(|| self.inner.sample_grid(dt, n)).map_err(be)?;
         Ok(TrajectorySamples::from_samples(&s))
@@ -1238,7 +1261,7 @@ impl BezierTrajectory {
         &self,
         py: Python<'py>,
         dt: f64,
-        steps: Option<i64>,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] steps: Option<i64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let n = steps_arg(&self.inner, dt, steps)?;
         let (x, u) = py.detach(|| self.inner.unicycle(dt, n)).map_err(be)?;
@@ -1255,7 +1278,7 @@ impl BezierTrajectory {
         &self,
         py: Python<'py>,
         dt: f64,
-        steps: Option<i64>,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] steps: Option<i64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let n = steps_arg(&self.inner, dt, steps)?;
         let (x, u) = py.detach(|| self.inner.car(dt, n)).map_err(be)?;
@@ -1268,7 +1291,11 @@ impl BezierTrajectory {
     /// The paper's discrete jerk cost (tangential speed at `samples` uniform times, jerk by
     /// second differences, `sum j_k^2 dT`).
     #[pyo3(signature = (samples = 100))]
-    fn jerk_cost_discrete(&self, py: Python<'_>, samples: i64) -> PyResult<f64> {
+    fn jerk_cost_discrete(
+        &self,
+        py: Python<'_>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] samples: i64,
+    ) -> PyResult<f64> {
         let n = count("samples", samples, 0)?;
         check_allocation("samples", n, 3 * std::mem::size_of::<Point>())?;
         Ok(py.detach(|| self.inner.jerk_cost_discrete(n)))
@@ -1283,7 +1310,11 @@ impl BezierTrajectory {
 
     /// The paper's curvature measure: `sum |curvature|` at `samples` uniform times.
     #[pyo3(signature = (samples = 100))]
-    fn curvature_sum(&self, py: Python<'_>, samples: i64) -> PyResult<f64> {
+    fn curvature_sum(
+        &self,
+        py: Python<'_>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] samples: i64,
+    ) -> PyResult<f64> {
         let n = count("samples", samples, 0)?;
         Ok(py.detach(|| self.inner.curvature_sum(n)))
     }
@@ -1346,7 +1377,7 @@ fn spline_cost(
     m: f64,
     k: f64,
     max_speed: f64,
-    samples: i64,
+    #[pyo3(from_py_with = crate::convert::int_i64)] samples: i64,
     jerk: &str,
 ) -> PyResult<f64> {
     let cost = cost_args(jerk_weight, curvature_weight, m, k, max_speed, samples, jerk)?;
@@ -1419,14 +1450,14 @@ fn optimize_spline(
     py: Python<'_>,
     waypoints: &Bound<'_, PyAny>,
     continuity: &str,
-    max_iterations: i64,
+    #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
     gradient_tolerance: f64,
     jerk_weight: f64,
     curvature_weight: f64,
     m: f64,
     k: f64,
     max_speed: f64,
-    samples: i64,
+    #[pyo3(from_py_with = crate::convert::int_i64)] samples: i64,
     jerk: &str,
 ) -> PyResult<SplineOptimizeResult> {
     let w = points_arg(waypoints, "waypoints", 2)?;

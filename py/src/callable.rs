@@ -18,7 +18,7 @@ use pyo3::types::PyTuple;
 
 use crate::convert::{to_arr, vec_to_numpy};
 use crate::costs::{Cost, CostSpec};
-use crate::dims::{Dispatch, Pair};
+use crate::dims::{model_size, Dispatch, Pair};
 use crate::errors::{invalid, CoreResult};
 use crate::models::Dynamics;
 
@@ -442,9 +442,9 @@ pub fn constraint_from_callable(
     nu: Option<i64>,
     rows: i64,
 ) -> PyResult<Py<PyAny>> {
-    let nx = positive(nx, "nx")?;
-    let nu = nu.map(|n| positive(n, "nu")).transpose()?;
-    let rows = positive(rows, "rows")?;
+    let nx = model_size(nx, "nx")?;
+    let nu = nu.map(|n| model_size(n, "nu")).transpose()?;
+    let rows = model_size(rows, "rows")?;
     let (f, name) = checked_callable(g, "g")?;
     let model = CallableConstraint {
         inner: Arc::new(PyFn { f, jac: None, name }),
@@ -453,13 +453,6 @@ pub fn constraint_from_callable(
         rows,
     };
     crate::safe::callable_constraint(py, model)
-}
-
-fn positive(v: i64, field: &str) -> PyResult<usize> {
-    usize::try_from(v)
-        .ok()
-        .filter(|n| *n >= 1)
-        .ok_or_else(|| invalid(field, format!("must be at least 1, got {v}")).into())
 }
 
 fn wrap_dynamics<NX: Dim, NU: Dim>(d: &CallableDynamics) -> CoreResult<Dynamics>
@@ -489,7 +482,7 @@ pub fn dynamics_from_callable(
     nu: i64,
     jacobians: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyAny>> {
-    let (nx, nu) = (positive(nx, "nx")?, positive(nu, "nu")?);
+    let (nx, nu) = (model_size(nx, "nx")?, model_size(nu, "nu")?);
     let (f, name) = checked_callable(f, "f")?;
     let jac = match jacobians {
         Some(j) if !j.is_none() => Some(checked_callable(j, "jacobians")?.0),
@@ -510,8 +503,8 @@ pub fn dynamics_from_callable(
 
 /// `Cost.from_callable`.
 pub fn cost_from_callable(py: Python<'_>, l: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
-    let nx = positive(nx, "nx")?;
-    let nu = nu.map(|n| positive(n, "nu")).transpose()?;
+    let nx = model_size(nx, "nx")?;
+    let nu = nu.map(|n| model_size(n, "nu")).transpose()?;
     let (f, name) = checked_callable(l, "l")?;
     let model = CallableCost {
         inner: Arc::new(PyFn { f, jac: None, name }),

@@ -215,3 +215,51 @@ pub fn check_allocation(field: &str, count: usize, item_bytes: usize) -> CoreRes
         )),
     }
 }
+
+/// Integer arguments. pyo3's own conversion answers a Python int that does not fit the Rust type
+/// of an argument (`-1` or `10**30` for a count) with Python's `OverflowError`; an argument
+/// declared `#[pyo3(from_py_with = crate::convert::int_usize)]` (and the others below) answers it
+/// with `ddpkit.InvalidInputError` (a `ValueError`) stating the range, and pyo3 adds the note
+/// "while processing 'name'" that names the argument. Anything that is not an integer stays a
+/// `TypeError`, as without the attribute.
+fn int_arg<'py, T>(obj: &Bound<'py, PyAny>, type_name: &str, min: &str, max: &str) -> PyResult<T>
+where
+    T: for<'a> FromPyObject<'a, 'py, Error = PyErr>,
+{
+    match obj.extract::<T>() {
+        Ok(v) => Ok(v),
+        Err(e) if e.is_instance_of::<pyo3::exceptions::PyOverflowError>(obj.py()) => {
+            let got = obj.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".into());
+            Err(invalid(
+                "integer argument",
+                format!("{got} does not fit a {type_name} (at least {min}, at most {max})"),
+            )
+            .into())
+        }
+        Err(e) => Err(e),
+    }
+}
+
+macro_rules! int_args {
+    ($($name:ident, $opt:ident: $t:ty;)*) => {$(
+        #[doc = concat!("A `", stringify!($t), "` argument (see [`int_arg`]).")]
+        pub fn $name(obj: &Bound<'_, PyAny>) -> PyResult<$t> {
+            int_arg::<$t>(obj, stringify!($t), &<$t>::MIN.to_string(), &<$t>::MAX.to_string())
+        }
+        #[doc = concat!("An optional `", stringify!($t), "` argument: `None` or an integer (see [`int_arg`]).")]
+        pub fn $opt(obj: &Bound<'_, PyAny>) -> PyResult<Option<$t>> {
+            if obj.is_none() {
+                Ok(None)
+            } else {
+                $name(obj).map(Some)
+            }
+        }
+    )*};
+}
+
+int_args! {
+    int_usize, opt_int_usize: usize;
+    int_u64, opt_int_u64: u64;
+    int_u8, opt_int_u8: u8;
+    int_i64, opt_int_i64: i64;
+}

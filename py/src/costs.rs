@@ -182,6 +182,15 @@ pub enum CostSpec {
 }
 
 impl CostSpec {
+    /// Whether evaluating this cost calls Python (a `from_callable` cost, also inside a sum).
+    pub(crate) fn calls_python(&self) -> bool {
+        match self {
+            CostSpec::Callable(_) => true,
+            CostSpec::Sum { terms, .. } => terms.iter().any(|(_, t)| t.calls_python()),
+            _ => false,
+        }
+    }
+
     /// The Python class name.
     fn kind(&self) -> &'static str {
         match self {
@@ -490,7 +499,12 @@ impl Cost {
     /// `l(x)` when `nu` is None. See `Dynamics.from_function` for what the function may use.
     #[staticmethod]
     #[pyo3(signature = (l, nx, nu = None))]
-    fn from_function(py: Python<'_>, l: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
+    fn from_function(
+        py: Python<'_>,
+        l: &Bound<'_, PyAny>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nx: i64,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] nu: Option<i64>,
+    ) -> PyResult<Py<PyAny>> {
         crate::tape::cost_from_function(py, l, nx, nu)
     }
 
@@ -506,7 +520,12 @@ impl Cost {
     /// differences; an exception raised by `l` during a solve is raised by the solve.
     #[staticmethod]
     #[pyo3(signature = (l, nx, nu = None))]
-    fn from_callable(py: Python<'_>, l: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
+    fn from_callable(
+        py: Python<'_>,
+        l: &Bound<'_, PyAny>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nx: i64,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] nu: Option<i64>,
+    ) -> PyResult<Py<PyAny>> {
         crate::callable::cost_from_callable(py, l, nx, nu)
     }
 }

@@ -131,6 +131,16 @@ pub fn check_run_time(nx: usize, nu: usize) -> CoreResult<()> {
     Ok(())
 }
 
+/// A size given from Python for a model the user brings (`nx`, `nu`, constraint `rows`):
+/// at least 1 and at most the run-time limits of [`ddp_core::dims`] (`rows` shares the state
+/// limit), checked before anything of that size is traced or allocated.
+pub fn model_size(v: i64, field: &str) -> CoreResult<usize> {
+    let limit = if field == "nu" { MAX_CONTROLS } else { MAX_STATES };
+    let n = usize::try_from(v).map_err(|_| crate::errors::invalid(field, format!("must be at least 1, got {v}")))?;
+    check_size(field, n, None, limit)?;
+    Ok(n)
+}
+
 /// The error for a pair that const-generic code (Safe-CDDP) is not compiled for.
 pub fn unsupported(what: &str, nx: usize, nu: usize) -> CoreError {
     let list: Vec<String> = PAIRS.iter().map(|(a, b)| format!("({a}, {b})")).collect();

@@ -241,7 +241,7 @@ fn experiment_aggregate(
     results_json: Vec<String>,
     out_dir: PathBuf,
     command: String,
-    workers: usize,
+    #[pyo3(from_py_with = crate::convert::int_usize)] workers: usize,
     seconds: f64,
 ) -> PyResult<String> {
     let name = name.to_string();

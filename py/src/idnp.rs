@@ -113,8 +113,8 @@ pub fn idnp_run(
     py: Python<'_>,
     q0: &Bound<'_, PyAny>,
     variant: &str,
-    max_iterations: usize,
-    max_level: u8,
+    #[pyo3(from_py_with = crate::convert::int_usize)] max_iterations: usize,
+    #[pyo3(from_py_with = crate::convert::int_u8)] max_level: u8,
 ) -> PyResult<IdnpRun> {
     let x0 = initial_state(q0)?;
     let variant = parse_variant(variant)?;
@@ -254,7 +254,11 @@ impl IdnpRun {
 impl IdnpRun {
     /// The leaves of the final grid of time index ``j`` as an ``(k, 3)`` array of rows
     /// ``(center_x, center_y, size)``.
-    fn grid<'py>(&self, py: Python<'py>, j: usize) -> PyResult<Bound<'py, PyAny>> {
+    fn grid<'py>(
+        &self,
+        py: Python<'py>,
+        #[pyo3(from_py_with = crate::convert::int_usize)] j: usize,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let g = self
             .grids
             .get(j)
@@ -278,10 +282,10 @@ impl IdnpRun {
 #[pyo3(signature = (n = 200, seed = 1, max_iterations = 15, optimizer_iterations = 400, uniform = false))]
 pub fn idnp_experiment(
     py: Python<'_>,
-    n: usize,
-    seed: u64,
-    max_iterations: usize,
-    optimizer_iterations: usize,
+    #[pyo3(from_py_with = crate::convert::int_usize)] n: usize,
+    #[pyo3(from_py_with = crate::convert::int_u64)] seed: u64,
+    #[pyo3(from_py_with = crate::convert::int_usize)] max_iterations: usize,
+    #[pyo3(from_py_with = crate::convert::int_usize)] optimizer_iterations: usize,
     uniform: bool,
 ) -> PyResult<IdnpExperiment> {
     let scene = Arc::new(Scene::narrow_passage());

@@ -24,6 +24,7 @@
 
 #[macro_use]
 pub mod dims;
+pub mod batch;
 pub mod bezier;
 pub mod callable;
 pub mod convert;
@@ -76,6 +77,7 @@ fn _ddpkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<solver::Solver>()?;
     m.add_class::<solver::Solution>()?;
     m.add_function(wrap_pyfunction!(solver::default_settings, m)?)?;
+    m.add_function(wrap_pyfunction!(solver::solve_batch, m)?)?;
     m.add_function(wrap_pyfunction!(supported_dimensions, m)?)?;
     tape::register(m)?;
     callable::register(m)?;

@@ -117,8 +117,8 @@ impl Dynamics {
     fn from_function(
         py: Python<'_>,
         f: &Bound<'_, PyAny>,
-        nx: i64,
-        nu: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nx: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nu: i64,
         dt: Option<f64>,
         integrator: &str,
     ) -> PyResult<Py<PyAny>> {
@@ -141,8 +141,8 @@ impl Dynamics {
     fn from_callable(
         py: Python<'_>,
         f: &Bound<'_, PyAny>,
-        nx: i64,
-        nu: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nx: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nu: i64,
         jacobians: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
         crate::callable::dynamics_from_callable(py, f, nx, nu, jacobians)

@@ -187,6 +187,30 @@ pub struct Problem {
 }
 
 impl Problem {
+    /// Whether a model of the problem calls Python on every evaluation (`from_callable`
+    /// dynamics or costs, also inside a `CostSum`): such a model needs the GIL and keeps its
+    /// exception for the thread that evaluated it, so its derivatives stay on the solving thread.
+    pub(crate) fn calls_python(&self, py: Python<'_>) -> bool {
+        fn items<'py>(obj: &Bound<'py, PyAny>) -> Vec<Bound<'py, PyAny>> {
+            as_sequence(obj).unwrap_or_else(|| vec![obj.clone()])
+        }
+        let src = self.source.bind(py);
+        let get = |i: usize| src.get_item(i).ok();
+        let dynamics = get(0)
+            .map(|d| {
+                items(&d)
+                    .iter()
+                    .any(|d| d.is_instance_of::<crate::callable::PyCallableDynamics>())
+            })
+            .unwrap_or(false);
+        let costs = [get(1), get(2)].into_iter().flatten().any(|c| {
+            items(&c)
+                .iter()
+                .any(|c| extract_cost(c, "cost").map(|s| s.calls_python()).unwrap_or(false))
+        });
+        dynamics || costs
+    }
+
     /// Reads the problem (the lock is only poisoned by a panic, which the bindings never cause).
     pub(crate) fn read<T>(lock: &RwLock<AnyProblem>, f: impl FnOnce(&AnyProblem) -> T) -> T {
         match lock.read() {
@@ -205,7 +229,7 @@ impl Problem {
         dynamics: &Bound<'_, PyAny>,
         running_cost: &Bound<'_, PyAny>,
         terminal_cost: &Bound<'_, PyAny>,
-        horizon: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] horizon: i64,
         u_min: Option<&Bound<'_, PyAny>>,
         u_max: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {

@@ -286,7 +286,12 @@ impl Constraint {
     /// (imposed on `x_1 .. x_N`, like the obstacles).
     #[staticmethod]
     #[pyo3(signature = (g, nx, nu = None))]
-    fn from_function(py: Python<'_>, g: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
+    fn from_function(
+        py: Python<'_>,
+        g: &Bound<'_, PyAny>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nx: i64,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] nu: Option<i64>,
+    ) -> PyResult<Py<PyAny>> {
         crate::tape::constraint_from_function(py, g, nx, nu)
     }
 
@@ -296,7 +301,13 @@ impl Constraint {
     /// solve is raised by the solve.
     #[staticmethod]
     #[pyo3(signature = (g, nx, nu = None, rows = 1))]
-    fn from_callable(py: Python<'_>, g: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>, rows: i64) -> PyResult<Py<PyAny>> {
+    fn from_callable(
+        py: Python<'_>,
+        g: &Bound<'_, PyAny>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] nx: i64,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] nu: Option<i64>,
+        #[pyo3(from_py_with = crate::convert::int_i64)] rows: i64,
+    ) -> PyResult<Py<PyAny>> {
         crate::callable::constraint_from_callable(py, g, nx, nu, rows)
     }
 
@@ -526,6 +537,11 @@ fn box_args(lower: &Bound<'_, PyAny>, upper: &Bound<'_, PyAny>) -> PyResult<(Vec
 }
 
 fn extract_constraints(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Arc<Spec>>> {
+    extract_constraints_at(obj, "constraints")
+}
+
+/// [`extract_constraints`] with errors naming `{field}[i]`.
+fn extract_constraints_at(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Vec<Arc<Spec>>> {
     let mut out = Vec::new();
     for (i, item) in obj.try_iter()?.enumerate() {
         let item = item?;
@@ -533,7 +549,7 @@ fn extract_constraints(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Arc<Spec>>> {
             Ok(c) => out.push(c.get().spec.clone()),
             Err(_) => {
                 return Err(invalid(
-                    format!("constraints[{i}]"),
+                    format!("{field}[{i}]"),
                     format!(
                         "must be a ddpkit constraint (e.g. ddpkit.Circle), got {}",
                         type_name(&item)
@@ -604,7 +620,7 @@ impl Tightening {
         beta: f64,
         sigma_w: &Bound<'_, PyAny>,
         gains: Option<&Bound<'_, PyAny>>,
-        update_every: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] update_every: i64,
         sigma_0: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let sigma_w = finite_arr(sigma_w, "sigma_w")?;
@@ -1064,7 +1080,7 @@ impl SafeCddpSolver {
         constraints: &Bound<'_, PyAny>,
         tightening: Option<Bound<'_, Tightening>>,
         method: &str,
-        max_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
         constraint_tolerance: f64,
         qp_method: &str,
         warm_up: &str,
@@ -1161,7 +1177,7 @@ impl SafeCddpSolver {
     }
 
     /// Shortens (or restores) the active horizon ``1 <= n <= N`` (shrinking-horizon MPC).
-    fn set_horizon(&mut self, n: i64) -> PyResult<()> {
+    fn set_horizon(&mut self, #[pyo3(from_py_with = crate::convert::int_i64)] n: i64) -> PyResult<()> {
         let n = usize::try_from(n).map_err(|_| invalid("horizon", format!("must be at least 1, got {n}")))?;
         with_dims!(self.nx, self.nu, edit_safe(&mut self.inner, Edit::Horizon(n)))?;
         Ok(())
@@ -1484,10 +1500,10 @@ impl Mpc {
         tightening: Option<Bound<'_, Tightening>>,
         goal_indices: Vec<i64>,
         goal_radius: f64,
-        iterations: i64,
-        initial_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] initial_iterations: i64,
         position_indices: (i64, i64),
-        max_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
         let d = Settings::default();
@@ -1534,7 +1550,11 @@ impl Mpc {
 
     /// Runs one episode from the problem's ``x0`` with the noise of ``seed`` (deterministic for
     /// a seed); the GIL is released meanwhile.
-    fn run_episode(&mut self, py: Python<'_>, seed: u64) -> PyResult<Episode> {
+    fn run_episode(
+        &mut self,
+        py: Python<'_>,
+        #[pyo3(from_py_with = crate::convert::int_u64)] seed: u64,
+    ) -> PyResult<Episode> {
         let (nx, nu) = (self.nx, self.nu);
         let inner = &mut self.inner;
         let e = py.detach(|| -> CoreResult<EpisodeOut> { with_dims!(nx, nu, run_mpc(inner, seed)) });
@@ -1601,8 +1621,134 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ControlBox>()?;
     m.add_class::<Tightening>()?;
     m.add_class::<SafeCddpSolver>()?;
+    m.add_function(wrap_pyfunction!(solve_batch_safe, m)?)?;
     m.add_class::<SafeSolution>()?;
     m.add_class::<Mpc>()?;
     m.add_class::<Episode>()?;
     Ok(())
+}
+
+// ------------------------------------------------------------------------------------------------
+// Batch solves.
+
+/// The constraints of a batch: one list for every problem, or one list per problem (a sequence
+/// of lists or tuples as long as `problems`); errors name `constraints` or `constraints[i]`.
+fn batch_constraints(obj: &Bound<'_, PyAny>, count: usize) -> PyResult<Vec<Vec<Arc<Spec>>>> {
+    let nested = |o: &Bound<'_, PyAny>| o.is_instance_of::<pyo3::types::PyList>() || o.is_instance_of::<PyTuple>();
+    // Lazily: a huge iterable is rejected at its first wrong item, never collected.
+    let mut iter = obj.try_iter()?;
+    let first = match iter.next() {
+        None => return Ok(vec![Vec::new()]),
+        Some(first) => first?,
+    };
+    if !nested(&first) {
+        return Ok(vec![extract_constraints(obj)?]);
+    }
+    let wrong_count = |got: String| {
+        crate::errors::shape(
+            "constraints",
+            got,
+            format!("{count} lists (one per problem) or one list of constraints for all"),
+        )
+    };
+    let mut out = vec![extract_constraints_at(&first, "constraints[0]")?];
+    for (i, item) in iter.enumerate() {
+        let (i, item) = (i + 1, item?);
+        if i >= count {
+            return Err(wrong_count(format!("more than {count} lists")).into());
+        }
+        if !nested(&item) {
+            return Err(invalid(
+                format!("constraints[{i}]"),
+                format!(
+                    "must be a list of constraints (like constraints[0]), got {}",
+                    type_name(&item)
+                ),
+            )
+            .into());
+        }
+        out.push(extract_constraints_at(&item, &format!("constraints[{i}]"))?);
+    }
+    if out.len() != count {
+        return Err(wrong_count(format!("{} lists", out.len())).into());
+    }
+    Ok(out)
+}
+
+/// Every problem of a Safe-CDDP batch, each with a fresh workspace, as `SafeCddpSolver.solve()`.
+fn safe_batch_impl<NX: Dim, NU: Dim>(
+    problems: &[&AnyProblem],
+    specs: &[Vec<Arc<Spec>>],
+    tightening: Option<&Tightening>,
+    settings: Settings,
+    threads: usize,
+) -> Result<Vec<Out>, crate::batch::BatchError>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU> + SafePair<NX, NU>,
+{
+    crate::batch::run(
+        problems,
+        threads,
+        || Ok(()),
+        |_, i, p| {
+            let spec = if specs.len() == 1 { &specs[0] } else { &specs[i] };
+            let mut s = new_safe::<NX, NU>(p, spec, tightening, settings)?;
+            solve_safe::<NX, NU>(&mut s, p, None, false)
+        },
+    )
+}
+
+/// Solves many Safe-CDDP problems of one structure (same ``nx``, ``nu`` and horizon) on
+/// ``threads`` threads in one call, each from a cold start with the settings of
+/// :class:`SafeCddpSolver` (same keywords and defaults), and returns their
+/// :class:`SafeSolution`\ s in order. The GIL is released meanwhile.
+///
+/// ``constraints`` is one list for every problem, or a list of lists, one per problem;
+/// ``tightening`` (or None) applies to every problem. Each solution equals
+/// ``SafeCddpSolver(problem, constraints, tightening, **settings).solve()`` alone, bit for bit,
+/// whatever the thread count (each problem gets a fresh Safe-CDDP workspace on its worker).
+/// ``threads=None`` uses ``RAYON_NUM_THREADS`` when set, else every core.
+///
+/// Errors, before any solve: as :func:`solve_batch`, and constraints that do not fit (naming
+/// ``constraints`` or ``problems[i]``).
+#[pyfunction]
+#[pyo3(signature = (problems, constraints, tightening = None, *, threads = None,
+                    method = method_name(Settings::default().method),
+                    max_iterations = Settings::default().max_iterations as i64,
+                    constraint_tolerance = Settings::default().constraint_tolerance,
+                    qp_method = qp_name(Settings::default().qp_method),
+                    warm_up = Settings::default().warm_up.as_str()))]
+#[pyo3(
+    text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
+                         constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio')"
+)]
+#[allow(clippy::too_many_arguments)]
+fn solve_batch_safe(
+    py: Python<'_>,
+    problems: &Bound<'_, PyAny>,
+    constraints: &Bound<'_, PyAny>,
+    tightening: Option<Bound<'_, Tightening>>,
+    #[pyo3(from_py_with = crate::convert::opt_int_i64)] threads: Option<i64>,
+    method: &str,
+    #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
+    constraint_tolerance: f64,
+    qp_method: &str,
+    warm_up: &str,
+) -> PyResult<Vec<SafeSolution>> {
+    let settings = settings_from(method, max_iterations, constraint_tolerance, qp_method, warm_up)?;
+    let batch = crate::batch::problems_of(problems)?;
+    let threads = crate::batch::threads_of(threads)?;
+    let specs = batch_constraints(constraints, batch.locks.len())?;
+    let (nx, nu) = (batch.nx, batch.nu);
+    let t = tightening.as_ref().map(|t| t.get());
+    let locks = &batch.locks;
+    let outs = py.detach(|| {
+        crate::batch::read_all(locks, |ps| {
+            with_dims!(nx, nu, safe_batch_impl(ps, &specs, t, settings, threads))
+        })
+    })?;
+    outs.into_iter()
+        .map(|o| SafeSolution::from_out(py, o, nx, nu))
+        .collect()
 }

@@ -277,7 +277,7 @@ fn sim_run_scenario(
     seed: Option<&Bound<'_, PyAny>>,
     direction: &str,
     max_time: Option<f64>,
-    horizon: Option<i64>,
+    #[pyo3(from_py_with = crate::convert::opt_int_i64)] horizon: Option<i64>,
     log: Option<PathBuf>,
 ) -> PyResult<SimResult> {
     let scenario = scenario_arg(scenario)?;
@@ -392,7 +392,12 @@ impl TurtlebotExperiment {
         Ok(vec_to_numpy(py, r.iter().map(|r| r.time_s).collect()))
     }
     /// True poses ``(x, y, theta)`` of episode ``index``, shape ``(steps + 1, 3)``.
-    fn poses<'py>(&self, py: Python<'py>, controller: &str, index: usize) -> PyResult<Bound<'py, PyAny>> {
+    fn poses<'py>(
+        &self,
+        py: Python<'py>,
+        controller: &str,
+        #[pyo3(from_py_with = crate::convert::int_usize)] index: usize,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let r = runs_of(&self.inner, controller)?;
         let run = r.get(index).ok_or_else(|| {
             PyErr::from(invalid(
@@ -430,7 +435,7 @@ impl TurtlebotExperiment {
 #[pyo3(signature = (runs = 100, seed = None, beta = 0.8, sigma_xy = None, sigma_theta = None, sigma_w_xy = None))]
 fn sim_safe_turtlebot(
     py: Python<'_>,
-    runs: i64,
+    #[pyo3(from_py_with = crate::convert::int_i64)] runs: i64,
     seed: Option<&Bound<'_, PyAny>>,
     beta: f64,
     sigma_xy: Option<f64>,

@@ -225,6 +225,7 @@ fn settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py, PyDi
     d.set_item("step_min", s.line_search.step_min)?;
     d.set_item("armijo", s.line_search.armijo)?;
     d.set_item("box_qp_iterations", s.box_qp_iterations)?;
+    d.set_item("derivative_threads", s.derivative_threads)?;
     Ok(d)
 }
 
@@ -250,6 +251,61 @@ fn count(field: &str, v: i64) -> CoreResult<usize> {
         .ok()
         .filter(|&n| n >= 1)
         .ok_or_else(|| invalid(field, format!("must be at least 1, got {v}")))
+}
+
+/// ddp-core's nested [`Settings`] from the flat keyword arguments of `Solver` and
+/// `solve_batch` (validated; errors name the keyword).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn build_settings(
+    method: &str,
+    max_iterations: i64,
+    gradient_tolerance: f64,
+    cost_tolerance: f64,
+    mu_init: f64,
+    mu_min: f64,
+    mu_max: f64,
+    mu_factor: f64,
+    regularization: &str,
+    step_factor: f64,
+    step_min: f64,
+    armijo: f64,
+    box_qp_iterations: i64,
+    derivative_threads: i64,
+) -> CoreResult<Settings> {
+    let placement = match regularization.to_ascii_lowercase().as_str() {
+        "control" => Regularization::Control,
+        "state" => Regularization::State,
+        other => {
+            return Err(invalid(
+                "regularization",
+                format!("must be 'control' or 'state', got '{other}'"),
+            ))
+        }
+    };
+    let settings = Settings {
+        method: parse_method(method)?,
+        max_iterations: count("max_iterations", max_iterations)?,
+        tolerances: Tolerances {
+            gradient: gradient_tolerance,
+            cost: cost_tolerance,
+        },
+        regularization: RegularizationSettings {
+            mu_init,
+            mu_min,
+            mu_max,
+            mu_factor,
+            placement,
+        },
+        line_search: LineSearchSettings {
+            step_factor,
+            step_min,
+            armijo,
+        },
+        box_qp_iterations: count("box_qp_iterations", box_qp_iterations)?,
+        derivative_threads: count("settings.derivative_threads", derivative_threads)?,
+    };
+    settings.validate().map_err(flat_error)?;
+    Ok(settings)
 }
 
 /// iLQR / DDP / box-DDP solver for one `Problem`, with a workspace allocated once.
@@ -287,6 +343,7 @@ impl Solver {
         step_min = LineSearchSettings::default().step_min,
         armijo = LineSearchSettings::default().armijo,
         box_qp_iterations = Settings::default().box_qp_iterations as i64,
+        derivative_threads = Settings::default().derivative_threads as i64,
     ))]
     // The defaults as Python sees them (`inspect.signature`, the stub); tests compare both with
     // `default_settings()`.
@@ -294,13 +351,13 @@ impl Solver {
         text_signature = "(problem, method='ilqr', max_iterations=200, gradient_tolerance=1e-9, \
                              cost_tolerance=1e-14, mu_init=0.0, mu_min=1e-9, mu_max=1e10, mu_factor=1.6, \
                              regularization='control', step_factor=0.5, step_min=0.0009765625, armijo=1e-4, \
-                             box_qp_iterations=100)"
+                             box_qp_iterations=100, derivative_threads=1)"
     )]
     #[allow(clippy::too_many_arguments)]
     fn new(
         problem: Bound<'_, Problem>,
         method: &str,
-        max_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
         gradient_tolerance: f64,
         cost_tolerance: f64,
         mu_init: f64,
@@ -311,37 +368,30 @@ impl Solver {
         step_factor: f64,
         step_min: f64,
         armijo: f64,
-        box_qp_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] box_qp_iterations: i64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] derivative_threads: i64,
     ) -> PyResult<Self> {
-        let placement = match regularization.to_ascii_lowercase().as_str() {
-            "control" => Regularization::Control,
-            "state" => Regularization::State,
-            other => {
-                return Err(invalid("regularization", format!("must be 'control' or 'state', got '{other}'")).into())
-            }
-        };
-        let settings = Settings {
-            method: parse_method(method)?,
-            max_iterations: count("max_iterations", max_iterations)?,
-            tolerances: Tolerances {
-                gradient: gradient_tolerance,
-                cost: cost_tolerance,
-            },
-            regularization: RegularizationSettings {
-                mu_init,
-                mu_min,
-                mu_max,
-                mu_factor,
-                placement,
-            },
-            line_search: LineSearchSettings {
-                step_factor,
-                step_min,
-                armijo,
-            },
-            box_qp_iterations: count("box_qp_iterations", box_qp_iterations)?,
-        };
-        settings.validate().map_err(flat_error)?;
+        let mut settings = build_settings(
+            method,
+            max_iterations,
+            gradient_tolerance,
+            cost_tolerance,
+            mu_init,
+            mu_min,
+            mu_max,
+            mu_factor,
+            regularization,
+            step_factor,
+            step_min,
+            armijo,
+            box_qp_iterations,
+            derivative_threads,
+        )?;
+        if settings.derivative_threads > 1 && problem.get().calls_python(problem.py()) {
+            // A Python callable model takes the GIL for every evaluation (threads gain nothing)
+            // and keeps its exception for the thread that called it: derivatives stay here.
+            settings.derivative_threads = 1;
+        }
         let p = problem.get();
         let (nx, nu, horizon) = (p.nx, p.nu, p.horizon);
         let shared = p.inner.clone();
@@ -378,24 +428,7 @@ impl Solver {
         // An exception raised by a Python callable model is the solve's error.
         crate::callable::raise_pending()?;
         let out = out?;
-        let n = self.horizon;
-        Ok(Solution {
-            xs: rows_to_numpy(py, n + 1, nx, out.xs)?.unbind(),
-            us: rows_to_numpy(py, n, nu, out.us)?.unbind(),
-            gains: stack_to_numpy(py, n, nu, nx, out.gains)?.unbind(),
-            feedforward: rows_to_numpy(py, n, nu, out.feedforward)?.unbind(),
-            status: out.status.to_string(),
-            iterations: out.iterations,
-            cost: out.cost,
-            initial_cost: out.initial_cost,
-            gradient: out.gradient,
-            mu: out.mu,
-            backward_passes: out.backward_passes,
-            forward_passes: out.forward_passes,
-            solve_time: out.solve_time,
-            cost_history: vec_to_numpy(py, out.cost_history).unbind(),
-            table: Table::Core(Box::new(out.report)),
-        })
+        Solution::from_out(py, out, nx, nu, self.horizon)
     }
 
     /// Receding horizon: drops the first knot of the last solution and repeats the last control,
@@ -590,6 +623,29 @@ impl Solution {
     }
 }
 
+impl Solution {
+    /// The Python object of a solve's plain-data results (`n` knots).
+    fn from_out(py: Python<'_>, out: SolveOut, nx: usize, nu: usize, n: usize) -> PyResult<Self> {
+        Ok(Solution {
+            xs: rows_to_numpy(py, n + 1, nx, out.xs)?.unbind(),
+            us: rows_to_numpy(py, n, nu, out.us)?.unbind(),
+            gains: stack_to_numpy(py, n, nu, nx, out.gains)?.unbind(),
+            feedforward: rows_to_numpy(py, n, nu, out.feedforward)?.unbind(),
+            status: out.status.to_string(),
+            iterations: out.iterations,
+            cost: out.cost,
+            initial_cost: out.initial_cost,
+            gradient: out.gradient,
+            mu: out.mu,
+            backward_passes: out.backward_passes,
+            forward_passes: out.forward_passes,
+            solve_time: out.solve_time,
+            cost_history: vec_to_numpy(py, out.cost_history).unbind(),
+            table: Table::Core(Box::new(out.report)),
+        })
+    }
+}
+
 #[pymethods]
 impl Solution {
     /// Whether the solve converged.
@@ -622,4 +678,104 @@ impl Solution {
             self.status, self.iterations, self.cost, self.solve_time
         )
     }
+}
+
+/// One problem of a batch: the same steps as `Solver.solve()` from a cold start.
+fn batch_impl<NX: Dim, NU: Dim>(
+    problems: &[&AnyProblem],
+    settings: Settings,
+    threads: usize,
+) -> Result<Vec<SolveOut>, crate::batch::BatchError>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+    Dispatch: Pair<NX, NU>,
+{
+    crate::batch::run(
+        problems,
+        threads,
+        || new_solver::<NX, NU>(problems[0], settings),
+        |solver, _, p| solve_impl::<NX, NU>(solver, p, None, false),
+    )
+}
+
+/// Solves many problems of one structure (the same ``nx``, ``nu`` and horizon; different
+/// ``x0``, costs, targets or models) on ``threads`` threads in one call, each from a cold start
+/// with the settings of :class:`Solver` (same keywords, same defaults), and returns their
+/// :class:`Solution`\ s in order. The GIL is released meanwhile.
+///
+/// Each solution equals ``Solver(problem, **settings).solve()`` for that problem alone, bit for
+/// bit, whatever the thread count: every worker thread owns one workspace and resets it before
+/// each problem. ``threads=None`` uses ``RAYON_NUM_THREADS`` when set, else every core.
+///
+/// Errors, before any solve: an empty list or a non-Problem item (``problems``,
+/// ``problems[i]``), a problem of other sizes or horizon than the first (``ShapeError`` naming
+/// ``problems[i]``), ``threads < 1``, invalid settings. An exception raised by a Python
+/// callable model is raised as itself (the other problems are still solved).
+#[pyfunction]
+#[pyo3(signature = (
+    problems,
+    *,
+    threads = None,
+    method = method_name(Settings::default().method),
+    max_iterations = Settings::default().max_iterations as i64,
+    gradient_tolerance = Tolerances::default().gradient,
+    cost_tolerance = Tolerances::default().cost,
+    mu_init = RegularizationSettings::default().mu_init,
+    mu_min = RegularizationSettings::default().mu_min,
+    mu_max = RegularizationSettings::default().mu_max,
+    mu_factor = RegularizationSettings::default().mu_factor,
+    regularization = placement_name(RegularizationSettings::default().placement),
+    step_factor = LineSearchSettings::default().step_factor,
+    step_min = LineSearchSettings::default().step_min,
+    armijo = LineSearchSettings::default().armijo,
+    box_qp_iterations = Settings::default().box_qp_iterations as i64,
+))]
+#[pyo3(
+    text_signature = "(problems, *, threads=None, method='ilqr', max_iterations=200, gradient_tolerance=1e-9, \
+                         cost_tolerance=1e-14, mu_init=0.0, mu_min=1e-9, mu_max=1e10, mu_factor=1.6, \
+                         regularization='control', step_factor=0.5, step_min=0.0009765625, armijo=1e-4, \
+                         box_qp_iterations=100)"
+)]
+#[allow(clippy::too_many_arguments)]
+pub fn solve_batch(
+    py: Python<'_>,
+    problems: &Bound<'_, PyAny>,
+    #[pyo3(from_py_with = crate::convert::opt_int_i64)] threads: Option<i64>,
+    method: &str,
+    #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
+    gradient_tolerance: f64,
+    cost_tolerance: f64,
+    mu_init: f64,
+    mu_min: f64,
+    mu_max: f64,
+    mu_factor: f64,
+    regularization: &str,
+    step_factor: f64,
+    step_min: f64,
+    armijo: f64,
+    #[pyo3(from_py_with = crate::convert::int_i64)] box_qp_iterations: i64,
+) -> PyResult<Vec<Solution>> {
+    let settings = build_settings(
+        method,
+        max_iterations,
+        gradient_tolerance,
+        cost_tolerance,
+        mu_init,
+        mu_min,
+        mu_max,
+        mu_factor,
+        regularization,
+        step_factor,
+        step_min,
+        armijo,
+        box_qp_iterations,
+        1,
+    )?;
+    let batch = crate::batch::problems_of(problems)?;
+    let threads = crate::batch::threads_of(threads)?;
+    let (nx, nu, n) = (batch.nx, batch.nu, batch.horizon);
+    let locks = &batch.locks;
+    let outs =
+        py.detach(|| crate::batch::read_all(locks, |ps| with_dims!(nx, nu, batch_impl(ps, settings, threads))))?;
+    outs.into_iter().map(|o| Solution::from_out(py, o, nx, nu, n)).collect()
 }

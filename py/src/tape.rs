@@ -21,7 +21,7 @@ use pyo3::types::PyTuple;
 
 use crate::convert::{finite_arr, matrix_to_numpy, vector_to_numpy};
 use crate::costs::{Cost, CostSpec};
-use crate::dims::{Dispatch, Pair};
+use crate::dims::{model_size, Dispatch, Pair};
 use crate::errors::{invalid, CoreError, CoreResult};
 use crate::models::Dynamics;
 use crate::safe::Constraint;
@@ -38,13 +38,6 @@ fn casadi(py: Python<'_>, f: &Bound<'_, PyAny>, kind: &str) -> PyResult<(String,
     py.import("ddpkit.trace")?
         .call_method1("from_casadi_json", (f, kind))?
         .extract()
-}
-
-fn check_n(v: i64, field: &str) -> PyResult<usize> {
-    usize::try_from(v)
-        .ok()
-        .filter(|n| *n >= 1)
-        .ok_or_else(|| invalid(field, format!("must be at least 1, got {v}")).into())
 }
 
 fn load(text: &str) -> CoreResult<TapeModel> {
@@ -125,7 +118,7 @@ pub fn dynamics_from_function(
     dt: Option<f64>,
     integrator: &str,
 ) -> PyResult<Py<PyAny>> {
-    let (nx, nu) = (check_n(nx, "nx")?, check_n(nu, "nu")?);
+    let (nx, nu) = (model_size(nx, "nx")?, model_size(nu, "nu")?);
     let model = load(&trace(py, f, "dynamics", nx, Some(nu))?)?;
     to_python(py, integrate(model, dt, integrator)?)
 }
@@ -143,9 +136,9 @@ pub fn dynamics_from_casadi(
 
 /// `Cost.from_function`: running `l(x, u)`, or terminal `l(x)` where `nu` is `None`.
 pub fn cost_from_function(py: Python<'_>, f: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
-    let nx = check_n(nx, "nx")?;
+    let nx = model_size(nx, "nx")?;
     let (kind, nu) = match nu {
-        Some(nu) => ("cost", Some(check_n(nu, "nu")?)),
+        Some(nu) => ("cost", Some(model_size(nu, "nu")?)),
         None => ("terminal_cost", None),
     };
     to_python(py, load(&trace(py, f, kind, nx, nu)?)?)
@@ -159,8 +152,8 @@ pub fn cost_from_casadi(py: Python<'_>, f: &Bound<'_, PyAny>) -> PyResult<Py<PyA
 
 /// `Constraint.from_function`: `g(x, u)`, or `g(x)` where `nu` is `None`.
 pub fn constraint_from_function(py: Python<'_>, f: &Bound<'_, PyAny>, nx: i64, nu: Option<i64>) -> PyResult<Py<PyAny>> {
-    let nx = check_n(nx, "nx")?;
-    let nu = nu.map(|n| check_n(n, "nu")).transpose()?;
+    let nx = model_size(nx, "nx")?;
+    let nu = nu.map(|n| model_size(n, "nu")).transpose()?;
     to_python(py, load(&trace(py, f, "constraint", nx, nu)?)?)
 }
 

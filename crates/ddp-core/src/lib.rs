@@ -20,6 +20,7 @@
 #![doc = "```"]
 
 pub mod autodiff;
+pub mod batch;
 pub mod boxqp;
 pub mod cost;
 pub mod costs;

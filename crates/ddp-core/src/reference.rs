@@ -96,6 +96,11 @@ pub fn diff_drive_goal() -> Problem<U3, U2> {
 
 /// The 12-state quadrotor (`dt = 0.02`, N = 50) from hover at the origin to hover at (1, 0, 0.5).
 pub fn quadrotor_reach() -> Problem<U12, U4> {
+    quadrotor_reach_horizon(50)
+}
+
+/// [`quadrotor_reach`] with `n` knots (the derivative-thread benchmark's long horizons).
+pub fn quadrotor_reach_horizon(n: usize) -> Problem<U12, U4> {
     let model = Quadrotor::new(0.02).expect("valid model");
     let hover = model.hover_thrust();
     let mut goal = Vector::<12>::zeros();
@@ -117,12 +122,17 @@ pub fn quadrotor_reach() -> Problem<U12, U4> {
         )
         .expect("valid weights"),
     );
-    Problem::new(Vector::zeros(), Arc::new(model), running, terminal, 50).expect("valid problem")
+    Problem::new(Vector::zeros(), Arc::new(model), running, terminal, n).expect("valid problem")
 }
 
 /// The planar floating base with a 2-link arm (`dt = 0.05`, N = 60), moving the base 0.5 m and
 /// the joints by (0.8, -0.6) rad, ending at rest.
 pub fn arm_base_reach() -> Problem<U10, U5> {
+    arm_base_reach_horizon(60)
+}
+
+/// [`arm_base_reach`] with `n` knots (the derivative-thread benchmark's long horizons).
+pub fn arm_base_reach_horizon(n: usize) -> Problem<U10, U5> {
     let mut goal = Vector::<10>::zeros();
     goal[0] = 0.5;
     goal[3] = 0.8;
@@ -133,7 +143,7 @@ pub fn arm_base_reach() -> Problem<U10, U5> {
         Arc::new(ArmBase::new(0.05).expect("valid model")),
         running,
         terminal,
-        60,
+        n,
     )
     .expect("valid problem")
 }

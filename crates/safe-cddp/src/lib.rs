@@ -43,6 +43,7 @@
 //! # Ok::<(), ddp_core::Error>(())
 //! ```
 
+pub mod batch;
 pub mod benchmark;
 pub mod constraint;
 pub mod constraints;

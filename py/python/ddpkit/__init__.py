@@ -22,7 +22,8 @@ sizes (:func:`supported_dimensions`) run on fixed-size matrices.
 
 Every error is a :class:`DdpError` (``ShapeError``, ``NotFiniteError`` and ``InvalidInputError``
 are also ``ValueError``\\ s) whose ``field`` attribute names the offending argument. Solves
-release the GIL.
+release the GIL. :func:`solve_batch` (and :func:`solve_batch_safe` for Safe-CDDP) solves many
+problems of one structure on all cores in one call, each result bit-identical to a solve alone.
 
 Safe-CDDP of Alcan and Kyrki (2022): :class:`SafeCddpSolver` solves problems with constraints
 (:class:`Circle`, :class:`ConvexPolygon`, :class:`Cylinder`, :class:`StateBox`,
@@ -95,6 +96,8 @@ from ddpkit._ddpkit import (
     default_settings,
     load_model,
     model_from_json,
+    solve_batch,
+    solve_batch_safe,
     supported_dimensions,
 )
 from ddpkit import bezier
@@ -154,5 +157,7 @@ __all__ = [
     "default_settings",
     "load_model",
     "model_from_json",
+    "solve_batch",
+    "solve_batch_safe",
     "supported_dimensions",
 ]

@@ -111,6 +111,8 @@ __all__ = [
     "sim_run_scenario",
     "sim_safe_turtlebot",
     "simd_level",
+    "solve_batch",
+    "solve_batch_safe",
     "spline_cost",
     "subgoal_generate_dataset",
     "subgoal_sample",
@@ -562,7 +564,13 @@ class Solver:
     - ``mu_init``, ``mu_min``, ``mu_max``, ``mu_factor``: Tassa's regularisation schedule;
     - ``regularization``: ``"control"`` (``Q_uu + mu I``) or ``"state"`` (``V_xx + mu I``);
     - ``step_factor``, ``step_min``, ``armijo``: the backtracking line search;
-    - ``box_qp_iterations``: iteration limit of the box QP (control limits).
+    - ``box_qp_iterations``: iteration limit of the box QP (control limits);
+    - ``derivative_threads``: threads that compute the dynamics and cost derivatives of the knots
+      (Crocoddyl's ``nthreads``); 1 (the default) computes them on the calling thread. Results are
+      bit-identical for any count. It pays only where the derivative phase is a large share of an
+      iteration: expensive models (traced, CasADi) or long horizons; for the built-in robots at
+      ``N = 100`` it costs more than it saves (README, "Scale"). Problems with
+      ``from_callable`` models compute their derivatives on the calling thread (they need the GIL).
 
     The defaults are Rust's (``ddp_core::Settings::default()``, also :func:`default_settings`).
     Problems of any size are solved (see the module docs). A solver is used by one thread at a
@@ -586,6 +594,7 @@ class Solver:
         step_min: float = 0.0009765625,
         armijo: float = 1e-4,
         box_qp_iterations: int = 100,
+        derivative_threads: int = 1,
     ) -> Self: ...
     def __getnewargs_ex__(self) -> tuple[tuple[Problem], dict[str, Any]]:
         """Pickles as its problem and settings; the unpickled solver has a fresh workspace."""
@@ -681,6 +690,63 @@ def default_settings(kind: str = "Solver") -> dict[str, Any]:
     (``ddp_core::Settings::default()``), ``"SafeCddpSolver"`` (``safe_cddp::Settings::default()``)
     or ``"Mpc"`` (``safe_cddp::mpc::MpcSettings::default()``). The classes' signatures take their
     defaults from the same Rust values."""
+
+def solve_batch(
+    problems: Sequence[Problem],
+    *,
+    threads: Optional[int] = None,
+    method: str = "ilqr",
+    max_iterations: int = 200,
+    gradient_tolerance: float = 1e-9,
+    cost_tolerance: float = 1e-14,
+    mu_init: float = 0.0,
+    mu_min: float = 1e-9,
+    mu_max: float = 1e10,
+    mu_factor: float = 1.6,
+    regularization: str = "control",
+    step_factor: float = 0.5,
+    step_min: float = 0.0009765625,
+    armijo: float = 1e-4,
+    box_qp_iterations: int = 100,
+) -> list[Solution]:
+    """Solves many problems of one structure (same ``nx``, ``nu`` and horizon; different ``x0``,
+    costs, targets or models) on ``threads`` threads in one call, each from a cold start with the
+    settings of :class:`Solver` (same keywords and defaults), and returns their
+    :class:`Solution` s in order. The GIL is released meanwhile.
+
+    Each solution equals ``Solver(problem, **settings).solve()`` for that problem alone, bit for
+    bit, whatever the thread count: every worker thread owns one workspace, reset before each
+    problem. ``threads=None`` uses ``RAYON_NUM_THREADS`` when set, else every core.
+
+    Errors, before any solve: an empty list or an item that is not a :class:`Problem`
+    (``InvalidInputError`` naming ``problems`` or ``problems[i]``), a problem whose sizes or
+    horizon differ from the first's (``ShapeError`` naming ``problems[i]``), ``threads < 1``
+    (naming ``threads``), invalid settings. An exception raised by a ``from_callable`` model is
+    raised as itself.
+    """
+
+def solve_batch_safe(
+    problems: Sequence[Problem],
+    constraints: Union[Sequence[Constraint], Sequence[Sequence[Constraint]]],
+    tightening: Optional[Tightening] = None,
+    *,
+    threads: Optional[int] = None,
+    method: str = "ilqr",
+    max_iterations: int = 200,
+    constraint_tolerance: float = 1e-8,
+    qp_method: str = "fast",
+    warm_up: str = "portfolio",
+) -> list[SafeSolution]:
+    """Solves many Safe-CDDP problems of one structure on ``threads`` threads in one call, each
+    from a cold start with the settings of :class:`SafeCddpSolver` (same keywords and defaults),
+    and returns their :class:`SafeSolution` s in order. The GIL is released meanwhile.
+
+    ``constraints`` is one list for every problem, or a list of lists, one per problem;
+    ``tightening`` (or None) applies to every problem. Each solution equals
+    ``SafeCddpSolver(problem, constraints, tightening, **settings).solve()`` alone, bit for bit,
+    whatever the thread count (each problem gets a fresh Safe-CDDP workspace on its worker).
+    Errors as :func:`solve_batch`, and constraints that do not fit the problems.
+    """
 
 def supported_dimensions() -> list[tuple[int, int]]:
     """The ``(nx, nu)`` pairs compiled into this build: the fixed-size fast path of the built-in

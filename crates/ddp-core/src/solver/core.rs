@@ -105,14 +105,52 @@ where
     /// `(xs, us)`.
     #[inline(never)]
     pub fn compute(&mut self, problem: &Problem<NX, NU>, xs: &[VectorN<NX>], us: &[VectorN<NU>], n: usize) {
-        for (k, knot) in problem.knots()[..n].iter().enumerate() {
-            let (x, u) = (&xs[k], &us[k]);
-            knot.dynamics.jacobians(x, u, &mut self.fx[k], &mut self.fu[k]);
-            let l = &mut self.l[k];
-            l.clear();
-            knot.cost.add_derivatives(x, u, 1.0, l);
-        }
+        knots_derivatives(
+            &problem.knots()[..n],
+            &xs[..n],
+            &us[..n],
+            &mut self.fx[..n],
+            &mut self.fu[..n],
+            &mut self.l[..n],
+        );
         self.cost_terminal(problem, &xs[n]);
+    }
+
+    /// [`Linearization::compute`] with the knots split over `threads` (contiguous chunks, one
+    /// per thread, the terminal cost on the calling thread). Each knot's derivatives are
+    /// computed by the same code as in the sequential pass and written to the same place, so the
+    /// result is bit-identical to [`Linearization::compute`] for any thread count.
+    pub fn compute_with(
+        &mut self,
+        threads: &DerivativeThreads,
+        problem: &Problem<NX, NU>,
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        n: usize,
+    ) {
+        #[cfg(feature = "parallel")]
+        if let Some(pool) = threads.pool.as_deref() {
+            if n >= 2 {
+                use rayon::prelude::*;
+                let chunk = n.div_ceil(threads.threads);
+                let knots = &problem.knots()[..n];
+                let (fx, fu, l) = (&mut self.fx[..n], &mut self.fu[..n], &mut self.l[..n]);
+                pool.install(|| {
+                    fx.par_chunks_mut(chunk)
+                        .zip(fu.par_chunks_mut(chunk))
+                        .zip(l.par_chunks_mut(chunk))
+                        .enumerate()
+                        .for_each(|(c, ((fx, fu), l))| {
+                            let r = c * chunk..c * chunk + fx.len();
+                            knots_derivatives(&knots[r.clone()], &xs[r.clone()], &us[r], fx, fu, l);
+                        });
+                });
+                self.cost_terminal(problem, &xs[n]);
+                return;
+            }
+        }
+        let _ = threads;
+        self.compute(problem, xs, us, n);
     }
 
     /// Only the running and terminal cost derivatives (the dynamics' are kept).
@@ -128,6 +166,83 @@ where
     fn cost_terminal(&mut self, problem: &Problem<NX, NU>, x_n: &VectorN<NX>) {
         self.l_n.clear();
         problem.terminal().add_derivatives(x_n, 1.0, &mut self.l_n);
+    }
+}
+
+/// The dynamics Jacobians and running-cost derivatives of `knots` at `(xs, us)` (equal lengths),
+/// into `fx`, `fu`, `l`: the one text of the derivative phase, sequential or per thread chunk.
+#[inline(always)]
+fn knots_derivatives<NX: Dim, NU: Dim>(
+    knots: &[crate::Knot<NX, NU>],
+    xs: &[VectorN<NX>],
+    us: &[VectorN<NU>],
+    fx: &mut [MatrixN<NX, NX>],
+    fu: &mut [MatrixN<NX, NU>],
+    l: &mut [CostDerivatives<NX, NU>],
+) where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    for (k, knot) in knots.iter().enumerate() {
+        let (x, u) = (&xs[k], &us[k]);
+        knot.dynamics.jacobians(x, u, &mut fx[k], &mut fu[k]);
+        let l = &mut l[k];
+        l.clear();
+        knot.cost.add_derivatives(x, u, 1.0, l);
+    }
+}
+
+/// The threads of the derivative phase ([`crate::Settings::derivative_threads`]): none (the
+/// calling thread) or a rayon pool of its own, created once (with the `parallel` feature).
+/// Clones share the pool.
+#[derive(Debug, Clone)]
+pub struct DerivativeThreads {
+    threads: usize,
+    #[cfg(feature = "parallel")]
+    pool: Option<std::sync::Arc<rayon::ThreadPool>>,
+}
+
+impl Default for DerivativeThreads {
+    fn default() -> Self {
+        Self {
+            threads: 1,
+            #[cfg(feature = "parallel")]
+            pool: None,
+        }
+    }
+}
+
+impl DerivativeThreads {
+    /// `threads` workers (1: none, the calling thread). Above 1 it starts a rayon pool of that
+    /// many threads (an allocation and `threads` OS threads, once); errors name
+    /// `settings.derivative_threads` (0, too many, no `parallel` feature, or the OS refused).
+    pub fn new(threads: usize) -> crate::Result<Self> {
+        let probe = crate::Settings {
+            derivative_threads: threads,
+            ..crate::Settings::default()
+        };
+        probe.validate()?;
+        if threads == 1 {
+            return Ok(Self::default());
+        }
+        #[cfg(feature = "parallel")]
+        {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .thread_name(|i| format!("ddp-derivatives-{i}"))
+                .build()
+                .map_err(|e| Error::invalid("settings.derivative_threads", format!("no thread pool: {e}")))?;
+            Ok(Self {
+                threads,
+                pool: Some(std::sync::Arc::new(pool)),
+            })
+        }
+        #[cfg(not(feature = "parallel"))]
+        unreachable!("Settings::validate rejects derivative_threads > 1 without the parallel feature")
+    }
+
+    /// The number of threads (1: the calling thread).
+    pub fn threads(&self) -> usize {
+        self.threads
     }
 }
 
@@ -578,6 +693,8 @@ where
     pub expected: Expected,
     /// Cost of the nominal trajectory.
     pub cost: f64,
+    /// The threads of the derivative phase ([`Core::set_derivative_threads`]).
+    pub derivative_threads: DerivativeThreads,
     dx: VectorN<NX>,
     du: VectorN<NU>,
 }
@@ -599,6 +716,7 @@ where
             reg: MuSchedule::new(reg),
             expected: Expected::default(),
             cost: f64::NAN,
+            derivative_threads: DerivativeThreads::default(),
             dx: dims.x_zeros(),
             du: dims.u_zeros(),
         }
@@ -702,9 +820,19 @@ where
         cost + problem.terminal().value(&t.xs_try[n])
     }
 
-    /// The derivatives along the nominal trajectory.
+    /// The derivatives along the nominal trajectory (on the derivative threads, if any).
     pub fn linearize(&mut self, problem: &Problem<NX, NU>) {
-        self.lin.compute(problem, &self.traj.xs, &self.traj.us, self.n);
+        self.lin
+            .compute_with(&self.derivative_threads, problem, &self.traj.xs, &self.traj.us, self.n);
+    }
+
+    /// Computes the derivatives on `threads` threads from now on (1: the calling thread); keeps
+    /// the current pool when the count is unchanged. Errors as [`DerivativeThreads::new`].
+    pub fn set_derivative_threads(&mut self, threads: usize) -> crate::Result<()> {
+        if threads != self.derivative_threads.threads() {
+            self.derivative_threads = DerivativeThreads::new(threads)?;
+        }
+        Ok(())
     }
 
     /// The backward pass over the workspace's linearisation, policy and value function with the

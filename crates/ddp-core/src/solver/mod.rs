@@ -29,13 +29,13 @@ pub mod core;
 pub mod settings;
 
 pub use self::core::{
-    armijo_accepts, backward_pass, line_search, BackwardOptions, BoxGains, ClampedGains, Core, Expected, FreeGains,
-    Gains, GainsInfo, Linearization, MuSchedule, NotPositiveDefinite, Policy, QBlocks, Trajectory, Trial,
-    ValueFunction,
+    armijo_accepts, backward_pass, line_search, BackwardOptions, BoxGains, ClampedGains, Core, DerivativeThreads,
+    Expected, FreeGains, Gains, GainsInfo, Linearization, MuSchedule, NotPositiveDefinite, Policy, QBlocks, Trajectory,
+    Trial, ValueFunction,
 };
 pub use self::settings::{
     IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Status,
-    Tolerances,
+    Tolerances, MAX_THREADS,
 };
 
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
@@ -45,7 +45,8 @@ use crate::Problem;
 /// The solver and its workspace for problems with horizon `N`, `NX` states and `NU` controls
 /// (compile-time or run-time sizes, see [`crate::dims`]).
 ///
-/// [`Solver::new`] allocates every buffer (`O(N)` matrices and the iteration log);
+/// [`Solver::new`] allocates every buffer (`O(N)` matrices and the iteration log) and, with
+/// [`Settings::derivative_threads`] above 1, starts the thread pool of the derivative phase;
 /// [`Solver::solve`] allocates nothing. The controls in the workspace are the initial guess of
 /// the next solve: after a solve they warm-start the next one; [`Solver::reset`] zeros them,
 /// [`Solver::set_controls`] sets them, [`Solver::shift`] moves them one knot for receding horizon.
@@ -78,9 +79,11 @@ where
     /// Validates `settings` and allocates the workspace for `problem`'s sizes and horizon.
     pub fn new(problem: &Problem<NX, NU>, settings: Settings) -> Result<Self> {
         settings.validate()?;
+        let mut core = Core::new(problem.dims(), problem.horizon(), &settings.regularization);
+        core.set_derivative_threads(settings.derivative_threads)?;
         Ok(Self {
             settings,
-            core: Core::new(problem.dims(), problem.horizon(), &settings.regularization),
+            core,
             report: Report::new(settings.max_iterations + 1),
         })
     }
@@ -93,6 +96,7 @@ where
     /// Replaces the settings (validated; the log keeps its capacity if large enough).
     pub fn set_settings(&mut self, settings: Settings) -> Result<()> {
         settings.validate()?;
+        self.core.set_derivative_threads(settings.derivative_threads)?;
         if settings.max_iterations + 1 > self.report.log.capacity() {
             self.report
                 .log

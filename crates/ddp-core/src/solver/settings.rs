@@ -175,6 +175,19 @@ pub struct Settings {
     pub line_search: LineSearchSettings,
     /// Iteration limit of the box QP (box-DDP).
     pub box_qp_iterations: usize,
+    /// Threads that compute the dynamics and cost derivatives of the knots (Crocoddyl's
+    /// `nthreads`); 1 (the default) computes them on the calling thread. The knots are split
+    /// into contiguous chunks, one per thread, and every knot's derivatives are computed by the
+    /// same code as on one thread, so the result is bit-identical for any thread count.
+    ///
+    /// It pays only where the derivative phase is a large share of an iteration and long enough
+    /// to amortise waking the pool (a few microseconds per iteration): expensive models (models
+    /// traced from Python, autodiff, finite differences, the arm on a floating base) or long
+    /// horizons. For the small analytic robots at `N = 100` the backward pass dominates and it
+    /// does not pay (`cargo run --release -p ddp-core --features parallel --example
+    /// derivative_threads` measures it). Values above 1 need ddp-core's `parallel` feature; the
+    /// pool is created by [`crate::Solver::new`] / [`crate::Solver::set_settings`].
+    pub derivative_threads: usize,
 }
 
 impl Default for Settings {
@@ -186,6 +199,7 @@ impl Default for Settings {
             regularization: RegularizationSettings::default(),
             line_search: LineSearchSettings::default(),
             box_qp_iterations: 100,
+            derivative_threads: 1,
         }
     }
 }
@@ -199,10 +213,33 @@ impl Settings {
         if self.box_qp_iterations == 0 {
             return Err(Error::invalid("settings.box_qp_iterations", "must be at least 1"));
         }
+        check_derivative_threads(self.derivative_threads)?;
         self.tolerances.validate()?;
         self.regularization.validate()?;
         self.line_search.validate()
     }
+}
+
+/// Most threads a solver may ask for (a guard against typos such as `10_000`, not a tuning limit).
+pub const MAX_THREADS: usize = 1024;
+
+/// `settings.derivative_threads` must be in `1..=MAX_THREADS`, and above 1 only with the
+/// `parallel` feature.
+fn check_derivative_threads(threads: usize) -> Result<()> {
+    let field = "settings.derivative_threads";
+    if threads == 0 || threads > MAX_THREADS {
+        return Err(Error::invalid(
+            field,
+            format!("must be in 1..={MAX_THREADS} (1: on the calling thread), got {threads}"),
+        ));
+    }
+    if threads > 1 && !cfg!(feature = "parallel") {
+        return Err(Error::invalid(
+            field,
+            format!("{threads} threads need ddp-core's `parallel` feature (this build has only 1)"),
+        ));
+    }
+    Ok(())
 }
 
 /// How a solve ended. Bad input is an [`Error`], never a status.

@@ -17,7 +17,7 @@ def binary(name: str) -> str:
     path = os.path.join(target, "release", name)
     assert os.path.isfile(path), (
         f"{path} is missing: build it with `cargo build --release -p safe-cddp --bin safe-cddp-table "
-        "-p subgoal-infer --bin subgoal-dataset` (scripts/test.sh does)"
+        "-p subgoal-infer --bin subgoal-dataset -p idnp --bin idnp-experiment` (scripts/test.sh does)"
     )
     return path
 
@@ -47,3 +47,24 @@ def tree_bytes(directory: str) -> dict[str, bytes]:
             with open(path, "rb") as f:
                 out[name] = f.read()
     return out
+
+
+#: Fields of IDNP results that are wall-clock times (measured, so never equal across runs).
+IDNP_TIME_FIELDS = ("dp_time", "inverse_time", "nlp_time")
+
+
+def idnp_without_times(value: Any) -> Any:
+    """An IDNP result (a case, or the whole experiment) with every wall-clock time removed: the
+    per-method times of each case and the summary's per-iteration times. Everything else is a
+    function of the seed and compared exactly."""
+    if isinstance(value, str):
+        value = json.loads(value)
+    if isinstance(value, dict):
+        return {
+            k: idnp_without_times(v)
+            for k, v in value.items()
+            if k not in IDNP_TIME_FIELDS and k not in ("times_fixed", "times_adaptive", "optimizer_ms")
+        }
+    if isinstance(value, list):
+        return [idnp_without_times(v) for v in value]
+    return value

@@ -16,7 +16,7 @@ import pytest
 from ddpkit import experiments
 from ddpkit.experiments import ExperimentError, ResultStore, StoreWriter, run_sweep
 
-from _experiments_util import binary, run_binary, table_without_run_fields, tree_bytes
+from _experiments_util import binary, idnp_without_times, run_binary, table_without_run_fields, tree_bytes
 
 #: A few Table I episodes: the point robot under CDDP and Safe-CDDP (beta 0.99).
 TABLE = {"episodes": 2, "seed": 3, "robots": ["point"], "betas": [0.5, 0.99]}
@@ -172,3 +172,27 @@ def test_store_writer_writes_every_result_in_batches_and_damaged_files_are_run_a
     with open(os.path.join(store.done_dir, store.key('{"a": 5}') + ".json"), "r+", encoding="utf-8") as f:
         f.truncate(10)
     assert store.get('{"a": 5}') is None
+
+
+#: Two IDNP cases with short loops (Richter et al. 2023), a few seconds.
+IDNP = {"n": 2, "seed": 3, "iterations": 2, "optimizer_iterations": 20}
+
+
+def test_idnp_cases_on_processes_equal_sequential_and_the_binary_except_wall_times(tmp_path: Any) -> None:
+    seq = run_sweep("idnp", IDNP, "sequential", out_dir=str(tmp_path / "seq"), progress=False)
+    par = run_sweep("idnp", IDNP, "processes", workers=2, out_dir=str(tmp_path / "par"), progress=False)
+    assert (seq.failed, seq.total, par.failed, par.total) == (0, 2, 0, 2)
+    stripped = [idnp_without_times(r) for r in seq.results]
+    assert stripped == [idnp_without_times(r) for r in par.results]
+    assert [c["index"] for c in stripped] == [0, 1]
+    assert all(c["fixed"]["iterations"] >= 1 and c["adaptive"]["termination"] for c in stripped)
+    run_binary(
+        "idnp-experiment", "--n", "2", "--seed", "3", "--iterations", "2", "--optimizer-iterations", "20",
+        "--json", str(tmp_path / "bin.json"), "--no-png", "--quiet",
+    )
+    with open(tmp_path / "bin.json") as f:
+        want = idnp_without_times(json.load(f))
+    with open(tmp_path / "seq" / "experiment.json") as f:
+        got = idnp_without_times(json.load(f))
+    assert got == want
+    assert "check adaptive >= fixed on every case" in seq.text

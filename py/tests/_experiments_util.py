@@ -59,12 +59,16 @@ def idnp_without_times(value: Any) -> Any:
     function of the seed and compared exactly."""
     if isinstance(value, str):
         value = json.loads(value)
+    return _strip_times(value)
+
+
+def _strip_times(value: Any) -> Any:
     if isinstance(value, dict):
         return {
-            k: idnp_without_times(v)
+            k: _strip_times(v)
             for k, v in value.items()
             if k not in IDNP_TIME_FIELDS and k not in ("times_fixed", "times_adaptive", "optimizer_ms")
         }
     if isinstance(value, list):
-        return [idnp_without_times(v) for v in value]
+        return [_strip_times(v) for v in value]
     return value

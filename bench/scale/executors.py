@@ -7,10 +7,13 @@ dataset.
 
     python bench/scale/executors.py --episodes 6 --workers 2 --json bench/results/executors.json
 
-Overhead per task of a back end with ``W`` workers: ``(wall * W - sum of task times) / n``, the
-task times measured inside the workers in the same run (so a machine slowed by other work slows
-both): what each task costs beyond its own work (scheduling, serialisation, the result store).
-Start-up (spawning processes, starting a local Ray cluster) is reported apart.
+Overhead per task of a back end with ``W`` workers: ``(wall * W - sum of task times) / n``, where
+``wall`` runs from the executor's start (workers up) to the last result stored and the task times
+are measured inside the workers in the same run (so a machine slowed by other work slows both):
+what each task costs beyond its own work (scheduling, serialisation, the result store, idle
+workers at the end). In percent: relative to the mean task time of the same run. Start-up
+(spawning processes or starting a local Ray cluster, and one worker per CPU importing ddpkit) and
+shut-down are reported apart: they are paid once per sweep, not per task.
 """
 
 from __future__ import annotations
@@ -73,6 +76,7 @@ def main() -> int:
         rows[executor] = {
             "workers": s.workers,
             "startup_s": s.startup_seconds,
+            "shutdown_s": s.shutdown_seconds,
             "wall_s": wall,
             "tasks_per_s": n / wall,
             "task_ms": 1e3 * task,
@@ -92,11 +96,11 @@ def main() -> int:
     t_sample = ds_wall / args.samples
 
     print(f"Safe-CDDP Table I, {args.episodes} episodes per robot and method: {n} tasks, {1e3 * t_seq:.1f} ms per task sequential")
-    print("| back end | workers | start-up (s) | wall (s) | tasks/s | task (ms) | overhead per task (ms) | overhead (% of task) |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| back end | workers | start-up (s) | shut-down (s) | wall (s) | tasks/s | task (ms) | overhead per task (ms) | overhead (% of task) |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, r in rows.items():
         print(
-            f"| {name} | {r['workers']} | {r['startup_s']:.2f} | {r['wall_s']:.2f} | {r['tasks_per_s']:.1f} | "
+            f"| {name} | {r['workers']} | {r['startup_s']:.2f} | {r['shutdown_s']:.2f} | {r['wall_s']:.2f} | {r['tasks_per_s']:.1f} | "
             f"{r['task_ms']:.1f} | {r['overhead_ms']:.2f} | {r['overhead_pct']:.1f} |"
         )
     print(f"sub-goal dataset: {1e3 * t_sample:.2f} ms per sample on one thread ({args.samples} samples)")

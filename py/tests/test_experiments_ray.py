@@ -224,7 +224,7 @@ def test_a_killed_ray_worker_is_retried_with_the_same_results(cluster: str, sequ
     killed = None
     deadline = time.monotonic() + 120
     while killed is None and t.is_alive() and time.monotonic() < deadline:
-        # A worker busy with one of our tasks is titled `ray::ddpkit_task`.
+        # A worker busy with a chunk of our tasks is titled `ray::ddpkit_tasks`.
         busy = _pids_with("ray::ddpkit_task")
         if busy:
             os.kill(busy[0], signal.SIGKILL)

@@ -137,10 +137,14 @@ class SweepSummary:
     ran: int
     #: ``(specification, error)`` of each task that failed.
     failures: list[tuple[str, str]]
-    #: Wall time of running the tasks (after the executor started).
+    #: Wall time of running the tasks: from the executor's start (workers up) to the last
+    #: result stored.
     seconds: float
-    #: Wall time of starting the executor (processes, a Ray connection or local cluster).
+    #: Wall time of starting the executor (processes, a Ray connection or local cluster, and
+    #: one worker per CPU importing ddpkit).
     startup_seconds: float = 0.0
+    #: Wall time of stopping the executor (after the last result was stored).
+    shutdown_seconds: float = 0.0
     #: The tasks' own run times, summed (measured inside the workers).
     task_seconds: float = 0.0
     #: Tasks that ran at once.
@@ -224,8 +228,11 @@ def run_sweep(
         try:
             writer.close()
         finally:
+            # The sweep's wall time ends with its last stored result; stopping the back end (a
+            # private local Ray cluster takes seconds) is reported apart, like starting it.
+            seconds = time.monotonic() - start
             ex.close()
-    seconds = time.monotonic() - start
+    shutdown_seconds = time.monotonic() - start - seconds
     summary = SweepSummary(
         exp.name,
         ex.name,
@@ -236,6 +243,7 @@ def run_sweep(
         failures,
         seconds,
         startup_seconds=start - started,
+        shutdown_seconds=shutdown_seconds,
         task_seconds=task_seconds,
         workers=ex.workers,
         results=results,

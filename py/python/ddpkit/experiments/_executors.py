@@ -47,6 +47,12 @@ def ddpkit_task(experiment: str, spec: str, threads: Optional[int] = None) -> tu
         return False, f"{type(e).__name__}: {e}", time.perf_counter() - start
 
 
+def ddpkit_tasks(experiment: str, specs: Sequence[str], threads: Optional[int] = None) -> list[tuple[bool, str, float]]:
+    """Runs several tasks one after another (a chunk of a Ray sweep: one scheduling round trip
+    for all of them); one ``(ok, text, seconds)`` per task, as :func:`ddpkit_task`."""
+    return [ddpkit_task(experiment, spec, threads) for spec in specs]
+
+
 def _warm_worker(threads: int, hold_s: float = 0.2) -> int:
     """Starts a worker for real: sets its thread count, imports the extension, and holds the
     worker for ``hold_s`` so that the executor's other warm-up calls land on other workers.
@@ -209,7 +215,13 @@ class RayExecutor(Executor):
 
     name = "ray"
 
-    def __init__(self, address: Optional[str] = None, workers: Optional[int] = None, max_retries: int = 3) -> None:
+    def __init__(
+        self, address: Optional[str] = None, workers: Optional[int] = None, max_retries: int = 3, chunk: Optional[int] = None
+    ) -> None:
+        if chunk is not None and (not isinstance(chunk, int) or chunk < 1):
+            raise ExperimentError(f"executor 'ray': chunk must be at least 1, got {chunk!r}")
+        #: Tasks per Ray call (``None``: about a quarter of each worker's share, at most 32).
+        self.chunk = chunk
         self.address = address
         self._requested = workers
         self.max_retries = max_retries
@@ -251,7 +263,7 @@ class RayExecutor(Executor):
             self._started = True
         self._ray = ray
         self._workers = max(1, int(ray.cluster_resources().get("CPU", 1)))
-        self._remote = ray.remote(ddpkit_task).options(num_cpus=1, max_retries=self.max_retries, retry_exceptions=False)
+        self._remote = ray.remote(ddpkit_tasks).options(num_cpus=1, max_retries=self.max_retries, retry_exceptions=False)
         # Start a worker per CPU now (Ray starts workers on demand, each importing ddpkit).
         warm = ray.remote(_warm_worker).options(num_cpus=1, max_retries=self.max_retries)
         try:
@@ -264,15 +276,19 @@ class RayExecutor(Executor):
         if self._ray is None:
             self.start()
         ray = self._ray
-        todo = list(range(len(specs)))[::-1]
-        pending: dict[Any, int] = {}
+        # Tasks go to Ray in chunks: each Ray call costs a few milliseconds of scheduling (more
+        # on a busy machine), paid once per chunk. A chunk of about a quarter of each worker's
+        # share keeps the load balanced; a lost worker's chunk is run again whole.
+        size = self.chunk or max(1, min(32, len(specs) // (4 * self._workers)))
+        chunks = [list(range(k, min(k + size, len(specs)))) for k in range(0, len(specs), size)][::-1]
+        pending: dict[Any, list[int]] = {}
         # Enough queued work to keep every CPU busy (nodes may join), without putting a huge
         # sweep's specifications into the object store at once.
         window = 2 * self._workers + 8
-        while todo or pending:
-            while todo and len(pending) < window:
-                i = todo.pop()
-                pending[self._remote.remote(experiment, specs[i], 1)] = i
+        while chunks or pending:
+            while chunks and len(pending) < window:
+                idx = chunks.pop()
+                pending[self._remote.remote(experiment, [specs[i] for i in idx], 1)] = idx
             refs = list(pending)
             done, rest = ray.wait(refs, num_returns=1)
             if rest:
@@ -280,13 +296,15 @@ class RayExecutor(Executor):
                 more, _ = ray.wait(rest, num_returns=len(rest), timeout=0)
                 done = done + more
             for ref in done:
-                i = pending.pop(ref)
+                idx = pending.pop(ref)
                 try:
-                    ok, text, seconds = ray.get(ref)
+                    outs = ray.get(ref)
                 except Exception as e:  # noqa: BLE001 - a worker lost more than max_retries times
-                    yield i, False, f"{type(e).__name__}: {e}", 0.0
+                    for i in idx:
+                        yield i, False, f"{type(e).__name__}: {e}", 0.0
                     continue
-                yield i, ok, text, seconds
+                for i, (ok, text, seconds) in zip(idx, outs):
+                    yield i, ok, text, seconds
 
     def close(self) -> None:
         if self._started and self._ray is not None:

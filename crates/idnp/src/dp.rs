@@ -104,7 +104,7 @@ impl DpSettings {
                 format!("must be at most {MAX_STEPS_PER_AXIS}, got {}", self.steps_per_axis),
             ));
         }
-        if self.steps_per_axis == 0 || self.steps_per_axis % 2 == 0 {
+        if self.steps_per_axis == 0 || self.steps_per_axis.is_multiple_of(2) {
             return Err(Error::invalid(
                 "dp.steps_per_axis",
                 format!(

@@ -196,3 +196,11 @@ def test_idnp_cases_on_processes_equal_sequential_and_the_binary_except_wall_tim
         got = idnp_without_times(json.load(f))
     assert got == want
     assert "check adaptive >= fixed on every case" in seq.text
+
+
+def test_idnp_bad_configuration_names_the_field_before_any_task(tmp_path: Any) -> None:
+    with pytest.raises(ExperimentError, match=r"config_json\.n is invalid: must be at least 1"):
+        run_sweep("idnp", {"n": 0}, out_dir=str(tmp_path), progress=False)
+    with pytest.raises(ExperimentError, match="unknown field `cases`"):
+        run_sweep("idnp", {"cases": 2}, out_dir=str(tmp_path), progress=False)
+    assert not os.path.isdir(os.path.join(str(tmp_path), "tasks", "idnp")), "no task ran"

@@ -23,6 +23,9 @@ cargo test --workspace --quiet
 echo "== cargo test -p sim2d --features live (the live view's WebSocket test on 127.0.0.1)"
 cargo test -p sim2d --features live --quiet --test live
 
+echo "== the experiment binaries py/tests/test_experiments*.py compare the sweeps with"
+cargo build --release --quiet -p safe-cddp --bin safe-cddp-table -p subgoal-infer --bin subgoal-dataset -p idnp --bin idnp-experiment
+
 echo "== build the wheel and install it"
 rm -rf "$CACHE/wheels"
 "$VENV/bin/maturin" build --release -m py/Cargo.toml --out "$CACHE/wheels" --quiet

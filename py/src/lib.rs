@@ -19,6 +19,7 @@
 //! | [`subgoal`] | `subgoal_generate_dataset`, `subgoal_sample`: the DDPEN sub-goal dataset (public as `ddpkit.subgoal`) |
 //! | [`subgoal_model`] | `SubgoalModel`: the DDPEN sub-goal network in Rust (public as `ddpkit.subgoal.SubgoalModel`) |
 //! | [`sim`] | `SimResult`, `TurtlebotExperiment`, `sim_run_scenario`, `sim_safe_turtlebot` (public as `ddpkit.sim`) |
+//! | [`experiments`] | `experiment_names`, `experiment_tasks`, `experiment_run_task`, `experiment_aggregate`: the experiments as tasks (public as `ddpkit.experiments`) |
 //! | [`bezier`] | `Bezier`, `Spline`, `SigmoidProfile`, `Trajectory`, costs, `optimize_spline` (public as `ddpkit.bezier`) |
 
 #[macro_use]
@@ -29,6 +30,7 @@ pub mod callable;
 pub mod convert;
 pub mod costs;
 pub mod errors;
+pub mod experiments;
 pub mod idnp;
 pub mod models;
 pub mod pickle;
@@ -85,6 +87,7 @@ fn _ddpkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     idnp::register(m)?;
     subgoal::register(m)?;
     subgoal_model::register(m)?;
+    experiments::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -435,6 +435,26 @@ def test_slow_entry_points_reject_garbage(tmp_path: Any) -> None:
             ext.sim_run_scenario(text)
     with pytest.raises(ALLOWED):
         ext.subgoal_generate_dataset(str(tmp_path / "d"), samples=0)
+    # The experiments' task functions (their garbage is fuzzed like every function): an unknown
+    # name, a task that is not JSON or not the experiment's, results that do not fit.
+    for call in [
+        lambda: ext.experiment_tasks("nope", "{}"),
+        lambda: ext.experiment_tasks("safe-table", '{"episodes": -1}'),
+        lambda: ext.experiment_run_task("safe-table", "{"),
+        lambda: ext.experiment_run_task("safe-table", '{"robot": "point"}'),
+        lambda: ext.experiment_run_task("subgoal-dataset", '{"out_dir": "", "shard": 0}'),
+        lambda: ext.experiment_aggregate("safe-table", "{}", ["{}"], str(tmp_path / "a")),
+        lambda: ext.experiment_tasks("idnp", '{"n": 0}'),
+        lambda: ext.experiment_tasks("idnp", '{"cases": 3}'),
+        lambda: ext.experiment_run_task("idnp", '{"index": 0}'),
+        lambda: ext.experiment_aggregate("idnp", '{"n": 2}', ["{}"], str(tmp_path / "i")),
+    ]:
+        with pytest.raises(ALLOWED):
+            call()
+    with pytest.raises(ddpkit.InvalidInputError, match="does not fit"):
+        ext.experiment_aggregate("safe-table", "{}", [], str(tmp_path / "w"), workers=-1)
+    with pytest.raises(ddpkit.InvalidInputError, match=r"config_json\.n"):
+        ext.experiment_tasks("idnp", '{"n": 0}')
 
 
 def test_huge_broadcast_array_is_an_error_naming_the_argument() -> None:

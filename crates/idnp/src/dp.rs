@@ -29,7 +29,7 @@
 //! | `rho_c`, `delta_c` of (2) | [`DpSettings::collision_weight`], [`DpSettings::collision_distance`] |
 //! | `w_phi` | [`DpSettings::terminal_weight`] |
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{nonnegative, positive, Error, Result};
 use crate::quadtree::QuadGrid;
@@ -104,7 +104,7 @@ impl DpSettings {
                 format!("must be at most {MAX_STEPS_PER_AXIS}, got {}", self.steps_per_axis),
             ));
         }
-        if self.steps_per_axis == 0 || self.steps_per_axis % 2 == 0 {
+        if self.steps_per_axis == 0 || self.steps_per_axis.is_multiple_of(2) {
             return Err(Error::invalid(
                 "dp.steps_per_axis",
                 format!(
@@ -314,7 +314,7 @@ impl Dp<'_> {
 }
 
 /// Grid statistics summed over the time indices.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct GridSize {
     /// Leaves (cells of the partition).
     pub cells: usize,

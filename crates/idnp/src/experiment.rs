@@ -14,7 +14,7 @@ use ddp_core::Vector;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::dp::GridSize;
 use crate::error::{Error, Result};
@@ -55,7 +55,7 @@ impl Default for ExperimentConfig {
 }
 
 /// An initial condition.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct InitialCondition {
     /// TCP position.
     pub tcp: [f64; 2],
@@ -124,7 +124,7 @@ pub fn sample_initial_conditions(
 }
 
 /// Result of one method on one case.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MethodResult {
     /// Whether it found a collision-free trajectory to the goal.
     pub success: bool,
@@ -173,7 +173,7 @@ impl MethodResult {
 }
 
 /// One initial condition and the results of every method.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CaseResult {
     /// Index of the case.
     pub index: usize,

@@ -55,5 +55,6 @@ pub mod nlp;
 pub mod plot;
 pub mod quadtree;
 pub mod scene;
+pub mod sweep;
 
 pub use error::{Error, Result};

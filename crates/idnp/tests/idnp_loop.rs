@@ -132,8 +132,7 @@ fn bad_initial_states_are_errors_naming_x0() {
     assert!(e.contains("x0") && e.contains("joint q1"), "{e}");
     // The optimiser alone checks the same.
     let e = idnp::idnp::optimizer_alone(&scene, &settings, &collide, 5)
-        .err()
-        .expect("an error")
+        .expect_err("an error")
         .to_string();
     assert!(e.contains("x0"), "{e}");
 }

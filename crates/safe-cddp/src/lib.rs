@@ -24,7 +24,7 @@
 //! | margins | [`SafeCddpSolver::margins`], [`tightening::margin`] | (20) |
 //! | `K` of eq. (19) | [`Gains`], [`SafeCddpSolver::propagation_gains`] | (19) |
 //! | `n1`, `n2` | [`mpc::MpcSettings::iterations`], [`Tightening::update_every`] | Alg. 1 |
-//! | Table I | [`table`], the binary `safe-cddp-table` (feature `cli`) | §IV |
+//! | Table I | [`table`], its tasks [`sweep`], the binary `safe-cddp-table` (feature `cli`) | §IV |
 //! | obstacle tracker `F`, `G` | [`kalman::ObstacleTracker`] | Queen Elizabeth's School (2022) |
 //!
 //! ```
@@ -47,12 +47,15 @@ pub mod batch;
 pub mod benchmark;
 pub mod constraint;
 pub mod constraints;
+#[cfg(feature = "figure")]
+pub mod figure;
 pub mod kalman;
 pub mod mpc;
 pub mod qp;
 pub mod quantile;
 pub mod settings;
 pub mod solver;
+pub mod sweep;
 pub mod table;
 pub mod tightening;
 

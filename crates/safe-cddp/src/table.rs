@@ -35,7 +35,7 @@ use std::sync::Arc;
 use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
 use ddp_core::models::{Car, DoubleIntegrator2D, Quadrotor};
 use ddp_core::{ControlBounds, Dynamics, Error, Matrix, Problem, Result, Vector};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::constraints::{Circle, Cylinder};
 use crate::mpc::{Mpc, MpcSettings};
@@ -46,7 +46,7 @@ use crate::{Constraint, Gains, Settings, Tightening};
 pub const BETAS: [f64; 4] = [0.5, 0.9, 0.95, 0.99];
 
 /// The robots of Table I.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Robot {
     /// 2-D point robot (double integrator), N = 100.
@@ -352,7 +352,7 @@ pub fn quadrotor(noise: f64) -> Result<Scenario<12, 4>> {
 }
 
 /// How an episode handles the chance constraints.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Method {
     /// Plain CDDP: no tightening (`beta = 0.5`).
@@ -431,8 +431,9 @@ pub fn episode_seed(seed: u64, robot: Robot, episode: usize) -> u64 {
     z ^ (z >> 31)
 }
 
-/// What Table I (and Fig. 4) keep of an episode.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// What Table I (and Fig. 4) keep of an episode (a sweep's task result, so it round-trips
+/// through JSON).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct EpisodeOutcome {
     /// The goal region was reached.
     pub success: bool,

@@ -97,6 +97,10 @@ __all__ = [
     "__version__",
     "arclen_batch",
     "default_settings",
+    "experiment_aggregate",
+    "experiment_names",
+    "experiment_run_task",
+    "experiment_tasks",
     "idnp_configuration",
     "idnp_experiment",
     "idnp_run",
@@ -1814,3 +1818,39 @@ def subgoal_sample(
     """Sample ``index`` of ``seed`` exactly as the dataset stores it: ``(costmap, goal, subgoals)``
     with ``costmap`` ``uint8 (200, 200)`` indexed ``[iy, ix]``, ``goal`` ``float32 (2,)`` and
     ``subgoals`` ``float32 (3, 2)`` in metres relative to the map centre."""
+
+# --------------------------------------------------------------------------------------------
+# Experiments as tasks (ddpkit.experiments)
+# --------------------------------------------------------------------------------------------
+
+def experiment_names() -> list[str]:
+    """The experiment names ``experiment_tasks`` and friends accept: ``"safe-table"`` (Table I of
+    Alcan and Kyrki 2022, a task per episode), ``"subgoal-dataset"`` (the DDPEN sub-goal dataset
+    of Gamayunov et al. 2023, a task per shard) and ``"idnp"`` (the IDNP experiment of Richter et
+    al. 2023, a task per initial condition)."""
+
+def experiment_tasks(name: str, config_json: str) -> list[str]:
+    """The task specifications (JSON text, one per task, in the order ``experiment_aggregate``
+    expects the results) of experiment ``name`` under ``config_json`` (a JSON object; missing
+    fields take the binary's defaults, unknown fields are an error naming them). Raises
+    ``InvalidInputError`` naming ``name`` or the configuration field."""
+
+def experiment_run_task(name: str, spec_json: str) -> str:
+    """Runs one task of experiment ``name`` (a specification from ``experiment_tasks``) and
+    returns its result as JSON text, the same bits as the experiment's binary computes for that
+    task. The GIL is released while it runs. A task error (or an internal panic) raises
+    ``InvalidInputError``."""
+
+def experiment_aggregate(
+    name: str,
+    config_json: str,
+    results_json: list[str],
+    out_dir: Union[str, os.PathLike[str]],
+    command: str = ...,
+    workers: int = 1,
+    seconds: float = 0.0,
+) -> str:
+    """Aggregates the results (JSON text, in task order) of experiment ``name`` into the files its
+    binary writes, in ``out_dir`` (created if missing; each file whole or absent), and returns the
+    text the binary prints. ``command``, ``workers`` and ``seconds`` go where the binary records
+    its command line (default empty), thread count and wall time."""

@@ -12,9 +12,11 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use clap::Parser;
-use idnp::experiment::{passage_resolving_level, run_experiment, run_idnp, ExperimentConfig, ExperimentResult};
+use idnp::experiment::{run_idnp, ExperimentResult};
 use idnp::idnp::Variant;
 use idnp::scene::Scene;
+use idnp::sweep::{self, IdnpConfig};
+use rayon::prelude::*;
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// IDNP with adaptive grid refinement: the experiment of Richter et al. (2023) on a planar base
@@ -76,20 +78,18 @@ fn run(args: Args) -> Result<bool, String> {
             .map_err(|e| e.to_string())?;
     }
     let scene = Arc::new(Scene::narrow_passage());
-    let mut config = ExperimentConfig {
+    let config = IdnpConfig {
         seed: args.seed,
-        initial_conditions: args.n,
+        n: args.n,
+        iterations: args.iterations,
+        region: args.region.as_ref().map(|r| [[r[0], r[1]], [r[2], r[3]]]),
         optimizer_iterations: args.optimizer_iterations,
-        ..ExperimentConfig::default()
+        uniform: args.uniform,
+        no_max_level_penalty: args.no_max_level_penalty,
     };
-    if let Some(r) = &args.region {
-        config.region = [[r[0], r[1]], [r[2], r[3]]];
-    }
-    config.settings.max_iterations = args.iterations;
-    config.settings.penalize_at_max_level = !args.no_max_level_penalty;
-    if args.uniform {
-        config.uniform_level = passage_resolving_level(&scene, &config.settings);
-    }
+    // The cases as independent tasks (idnp::sweep), the ones `python -m ddpkit.experiments idnp`
+    // runs on its executors, here on every core.
+    let tasks = sweep::tasks(&config).map_err(|e| e.to_string())?;
     let bar = if args.quiet {
         ProgressBar::hidden()
     } else {
@@ -99,19 +99,19 @@ fn run(args: Args) -> Result<bool, String> {
         ProgressStyle::with_template("{bar:40} {pos}/{len} cases [{elapsed_precise} < {eta_precise}]")
             .map_err(|e| e.to_string())?,
     );
-    let result = run_experiment(&scene, &config, &|| bar.inc(1)).map_err(|e| e.to_string())?;
+    let cases = tasks
+        .par_iter()
+        .map(|t| {
+            let r = sweep::run_task(t);
+            bar.inc(1);
+            r
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| e.to_string())?;
+    let result = sweep::aggregate(&config, &cases).map_err(|e| e.to_string())?;
     bar.finish_and_clear();
-    let s = &result.summary;
-    println!(
-        "IDNP experiment: seed {}, {} initial conditions, at most {} iterations each\n",
-        args.seed, args.n, args.iterations
-    );
-    println!("{}", s.table());
-    let never_fewer = s.fixed_not_adaptive.is_empty();
-    println!(
-        "check adaptive >= fixed on every case: {}",
-        if never_fewer { "PASS" } else { "FAIL" }
-    );
+    print!("{}", sweep::report(&config, &result));
+    let never_fewer = result.summary.fixed_not_adaptive.is_empty();
     if let Some(path) = &args.json {
         write_json(path, &result)?;
         println!("results: {}", path.display());
@@ -119,25 +119,9 @@ fn run(args: Args) -> Result<bool, String> {
     if !args.no_png {
         // The first case the adaptive grid solved in three iterations and the fixed grid did not
         // (as in Fig. 3; else after two or more, else any), re-run to keep grids and waypoints.
-        let pick = result
-            .cases
-            .iter()
-            .find(|c| c.adaptive.success && !c.fixed.success && c.adaptive.iterations == 3)
-            .or_else(|| {
-                result
-                    .cases
-                    .iter()
-                    .find(|c| c.adaptive.success && !c.fixed.success && c.adaptive.iterations >= 2)
-            })
-            .or_else(|| {
-                result
-                    .cases
-                    .iter()
-                    .find(|c| c.adaptive.success && c.adaptive.iterations >= 2)
-            })
-            .or_else(|| result.cases.iter().find(|c| c.adaptive.success));
+        let pick = sweep::figure_case(&result);
         if let Some(case) = pick {
-            let (out, grids) = run_idnp(&scene, config.settings, Variant::Adaptive, case.initial.state())
+            let (out, grids) = run_idnp(&scene, result.config.settings, Variant::Adaptive, case.initial.state())
                 .map_err(|e| e.to_string())?;
             if let Some(dir) = args.png.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;

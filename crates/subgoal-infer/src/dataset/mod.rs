@@ -62,6 +62,7 @@
 
 mod shapes;
 mod shards;
+pub mod sweep;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -111,7 +112,8 @@ pub fn cell_position(cell: (usize, usize)) -> [f32; 2] {
 /// Parameters of the generator. Defaults: the inflation of sim2d's perception (inscribed
 /// 0.3 m, inflation 1.2 m, decay 3 /m), a free disc of 0.5 m, goals within 0.5 m of the
 /// border, sub-goals at steps 30, 50, 70, traps in 60 % of the samples, 1 to 8 clutter obstacles.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct DatasetParams {
     /// Inscribed radius of the inflation (m); sim2d `PerceptionParams::inscribed_radius`.
     pub inscribed_radius: f64,

@@ -25,6 +25,7 @@ use std::time::Instant;
 use safetensors::tensor::Dtype;
 use safetensors::SafeTensors;
 
+use super::sweep::{self, DatasetConfig, ShardWriter};
 use super::{DatasetParams, Generator, SampleInfo, MAP_CELLS, MAP_LEN, NUM_SUBGOALS, RESOLUTION};
 use crate::error::Error;
 
@@ -33,8 +34,8 @@ pub const FORMAT_NAME: &str = "ddpkit-subgoal-dataset";
 /// Version of the shard layout; readers reject other versions.
 pub const FORMAT_VERSION: u32 = 1;
 /// Largest shard (samples): 50 000 costmaps are 2 GB in memory while the shard is built.
-const MAX_SHARD_SIZE: usize = 50_000;
-const MANIFEST: &str = "manifest.json";
+pub(super) const MAX_SHARD_SIZE: usize = 50_000;
+pub(super) const MANIFEST: &str = "manifest.json";
 
 /// Errors of writing and reading datasets.
 #[derive(Debug, thiserror::Error)]
@@ -74,7 +75,7 @@ impl DatasetError {
     }
 }
 
-fn io_err(field: &str, path: &Path, e: impl std::fmt::Display) -> DatasetError {
+pub(super) fn io_err(field: &str, path: &Path, e: impl std::fmt::Display) -> DatasetError {
     DatasetError::Io {
         field: field.into(),
         path: path.to_path_buf(),
@@ -200,7 +201,7 @@ pub fn shard_file_name(k: usize) -> String {
     format!("shard-{k:05}.safetensors")
 }
 
-fn params_json(p: &DatasetParams) -> serde_json::Value {
+pub(super) fn params_json(p: &DatasetParams) -> serde_json::Value {
     serde_json::json!({
         "inscribed_radius": p.inscribed_radius,
         "inflation_radius": p.inflation_radius,
@@ -220,13 +221,14 @@ fn params_json(p: &DatasetParams) -> serde_json::Value {
 }
 
 /// The frame convention, stored with the data so a reader need not guess.
-const FRAME: &str = "goals and subgoals in metres relative to the map centre; x along the column index ix, \
+pub(super) const FRAME: &str = "goals and subgoals in metres relative to the map centre; x along the column index ix, \
 y along the row index iy; a cell stands for its centre ((i - 100 + 0.5) * 0.05); costmaps[k, iy, ix]";
 
 /// Generates `opts.samples` samples into `out_dir` (created if missing) as shards and a manifest
 /// (see the module docs). `progress(k)` is called from the worker threads as `k` more samples are
-/// done. An existing `manifest.json` is removed first and shards of this naming beyond the new
-/// count are deleted, so the directory ends up holding exactly the new dataset. Errors name the
+/// done. An existing `manifest.json` is removed before the first shard is written and shards of
+/// this naming beyond the new count are deleted before the new manifest is written, so the
+/// directory ends up holding exactly the new dataset. Errors name the
 /// field: `samples`, `shard_size`, `threads`, a parameter, or `out_dir` for files.
 pub fn write_dataset(
     out_dir: &Path,
@@ -235,65 +237,22 @@ pub fn write_dataset(
 ) -> Result<DatasetSummary, DatasetError> {
     opts.validate()?;
     let start = Instant::now();
-    std::fs::create_dir_all(out_dir).map_err(|e| io_err("out_dir", out_dir, e))?;
-    let manifest_path = out_dir.join(MANIFEST);
-    match std::fs::remove_file(&manifest_path) {
-        Ok(()) => {}
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => return Err(io_err("out_dir", &manifest_path, e)),
-    }
-    let n_shards = opts.samples.div_ceil(opts.shard_size as u64) as usize;
-    remove_stale_shards(out_dir, n_shards)?;
-    let proto = Generator::new(opts.params.clone())?;
-    let pool = thread_pool(opts.threads)?;
-    let mut shards = Vec::with_capacity(n_shards);
-    let mut costmaps = Vec::new();
-    let mut infos = Vec::new();
-    for k in 0..n_shards {
-        let first = k as u64 * opts.shard_size as u64;
-        let n = (opts.samples - first).min(opts.shard_size as u64) as usize;
-        costmaps.clear();
-        costmaps.resize(n * MAP_LEN, 0u8);
-        infos.clear();
-        infos.resize(n, SampleInfo::default());
-        fill(&pool, &proto, opts.seed, first, &mut costmaps, &mut infos, progress);
-        let file = shard_file_name(k);
-        let path = out_dir.join(&file);
-        write_shard(&path, opts, first, &costmaps, &infos)?;
-        shards.push(ShardEntry {
-            file,
-            first_index: first,
-            samples: n as u64,
-        });
-    }
-    let manifest = serde_json::json!({
-        "format": FORMAT_NAME,
-        "format_version": FORMAT_VERSION,
-        "samples": opts.samples,
-        "seed": opts.seed,
-        "shard_size": opts.shard_size,
-        "resolution": RESOLUTION,
-        "map_cells": MAP_CELLS,
-        "subgoal_steps": opts.params.subgoal_steps,
-        "frame": FRAME,
-        "params": params_json(&opts.params),
-        "shards": shards.iter().map(|s| serde_json::json!({
-            "file": s.file, "first_index": s.first_index, "samples": s.samples,
-        })).collect::<Vec<_>>(),
-    });
-    let text = serde_json::to_string_pretty(&manifest).map_err(|e| io_err("out_dir", &manifest_path, e))?;
-    ddpkit_util::fs::write_atomic(&manifest_path, text).map_err(|e| io_err("out_dir", &manifest_path, e))?;
-    Ok(DatasetSummary {
-        dir: out_dir.to_path_buf(),
-        samples: opts.samples,
-        shards,
-        manifest: manifest_path,
-        seconds: start.elapsed().as_secs_f64(),
-    })
+    // The shards are the tasks of `sweep` (what `ddpkit.experiments` runs on other executors),
+    // run here one after another, each on every thread of the pool.
+    let config = DatasetConfig::from_options(out_dir, opts);
+    let tasks = sweep::tasks(&config)?;
+    let writer = ShardWriter::new(&opts.params, opts.threads)?;
+    let results = tasks
+        .iter()
+        .map(|t| writer.write(t, progress))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut summary = sweep::aggregate(&config, &results)?;
+    summary.seconds = start.elapsed().as_secs_f64();
+    Ok(summary)
 }
 
 /// Deletes `shard-NNNNN.safetensors` files with `NNNNN >= keep` (left by a larger earlier run).
-fn remove_stale_shards(dir: &Path, keep: usize) -> Result<(), DatasetError> {
+pub(super) fn remove_stale_shards(dir: &Path, keep: usize) -> Result<(), DatasetError> {
     let entries = std::fs::read_dir(dir).map_err(|e| io_err("out_dir", dir, e))?;
     for entry in entries.flatten() {
         let name = entry.file_name();
@@ -318,13 +277,14 @@ fn le_bytes_f32(v: impl Iterator<Item = f32>) -> Vec<u8> {
 /// by `safetensors::serialize_to_file`, whose metadata comes from a `HashMap` in random order:
 /// the same seed must give the same bytes. Streams the costmaps without a copy; temporary file
 /// and rename, so the shard is whole or absent.
-fn write_shard(
+pub(super) fn write_shard(
     path: &Path,
-    opts: &WriteOptions,
+    seed: u64,
+    params: &DatasetParams,
     first: u64,
     costmaps: &[u8],
     infos: &[SampleInfo],
-) -> Result<(), DatasetError> {
+) -> Result<(u64, u64), DatasetError> {
     use std::io::Write;
     let n = infos.len();
     let goals = le_bytes_f32(infos.iter().flat_map(|s| s.goal));
@@ -345,17 +305,14 @@ fn write_shard(
     let mut meta = [
         ("format", FORMAT_NAME.to_string()),
         ("format_version", FORMAT_VERSION.to_string()),
-        ("seed", opts.seed.to_string()),
+        ("seed", seed.to_string()),
         ("first_index", first.to_string()),
         ("samples", n.to_string()),
         ("resolution", RESOLUTION.to_string()),
         ("map_cells", MAP_CELLS.to_string()),
-        (
-            "subgoal_steps",
-            serde_json::json!(opts.params.subgoal_steps).to_string(),
-        ),
+        ("subgoal_steps", serde_json::json!(params.subgoal_steps).to_string()),
         ("frame", FRAME.to_string()),
-        ("params", params_json(&opts.params).to_string()),
+        ("params", params_json(params).to_string()),
     ];
     meta.sort();
     // JSON string literals (escaped) for keys and values.
@@ -376,24 +333,59 @@ fn write_shard(
     while header.len() % 8 != 0 {
         header.push(' ');
     }
+    let len = (header.len() as u64).to_le_bytes();
+    // Size and FNV-1a digest of the file's bytes: a sweep's per-shard result, so two runs can be
+    // compared without reading the shards back.
+    let mut digest = Fnv1a::new();
+    digest.update(&len);
+    digest.update(header.as_bytes());
+    for (_, _, _, data) in &tensors {
+        digest.update(data);
+    }
     ddpkit_util::fs::write_atomic_with(path, |f| {
-        f.write_all(&(header.len() as u64).to_le_bytes())?;
+        f.write_all(&len)?;
         f.write_all(header.as_bytes())?;
         for (_, _, _, data) in &tensors {
             f.write_all(data)?;
         }
         Ok(())
     })
-    .map_err(|e| io_err("out_dir", path, e))
+    .map_err(|e| io_err("out_dir", path, e))?;
+    Ok((digest.bytes, digest.hash))
+}
+
+/// 64-bit FNV-1a over a stream of bytes, with its length.
+struct Fnv1a {
+    hash: u64,
+    bytes: u64,
+}
+
+impl Fnv1a {
+    fn new() -> Self {
+        Self {
+            hash: 0xcbf2_9ce4_8422_2325,
+            bytes: 0,
+        }
+    }
+
+    fn update(&mut self, data: &[u8]) {
+        let mut h = self.hash;
+        for &b in data {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        self.hash = h;
+        self.bytes += data.len() as u64;
+    }
 }
 
 #[cfg(feature = "parallel")]
-type Pool = Option<rayon::ThreadPool>;
+pub(super) type Pool = Option<rayon::ThreadPool>;
 #[cfg(not(feature = "parallel"))]
-type Pool = ();
+pub(super) type Pool = ();
 
 #[cfg(feature = "parallel")]
-fn thread_pool(threads: Option<usize>) -> Result<Pool, DatasetError> {
+pub(super) fn thread_pool(threads: Option<usize>) -> Result<Pool, DatasetError> {
     match threads {
         None => Ok(None),
         Some(t) => rayon::ThreadPoolBuilder::new()
@@ -405,13 +397,13 @@ fn thread_pool(threads: Option<usize>) -> Result<Pool, DatasetError> {
 }
 
 #[cfg(not(feature = "parallel"))]
-fn thread_pool(_threads: Option<usize>) -> Result<Pool, DatasetError> {
+pub(super) fn thread_pool(_threads: Option<usize>) -> Result<Pool, DatasetError> {
     Ok(())
 }
 
 /// Samples `first..first + infos.len()` into the buffers.
 #[cfg(feature = "parallel")]
-fn fill(
+pub(super) fn fill(
     pool: &Pool,
     proto: &Generator,
     seed: u64,
@@ -448,7 +440,7 @@ fn fill(
 }
 
 #[cfg(not(feature = "parallel"))]
-fn fill(
+pub(super) fn fill(
     _pool: &Pool,
     proto: &Generator,
     seed: u64,

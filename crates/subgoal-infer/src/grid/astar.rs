@@ -27,7 +27,8 @@ use std::collections::BinaryHeap;
 use super::costmap::{Costmap, GridGeometry, INSCRIBED, MAX_NON_OBSTACLE};
 
 /// Parameters of [`AStar::search`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct AStarParams {
     /// Cells with cost `>=` this are impassable (default [`INSCRIBED`]: the robot's inscribed
     /// circle would touch an obstacle).

@@ -1,0 +1,134 @@
+"""``python -m ddpkit.experiments EXPERIMENT [options]``: run an experiment's tasks on an executor.
+
+Examples::
+
+    python -m ddpkit.experiments safe-table --episodes 100 --seed 1 --out out/table
+    python -m ddpkit.experiments safe-table --executor processes --workers 8 --out out/table
+    python -m ddpkit.experiments safe-table --executor ray --address auto --episodes 1000 --out out/table
+
+Rerunning the same command resumes: finished tasks are read from ``OUT/tasks`` and not run again.
+Exit status: 0 when every task finished and the outputs were written, 1 when some task failed
+(listed in ``OUT/failed.json``; a rerun retries them), 2 for bad arguments (an unknown experiment
+or executor, a missing ``ray``, an unreachable ``--address``, a bad configuration).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any, Callable, Optional
+
+from ddpkit.experiments import EXECUTORS, EXPERIMENTS, ExperimentError, run_sweep
+
+
+def _floats(text: str) -> list[float]:
+    return [float(v) for v in text.split(",") if v.strip()]
+
+
+def _names(text: str) -> list[str]:
+    return [v.strip() for v in text.split(",") if v.strip()]
+
+
+#: Per experiment: (flag, configuration field, type, help). ``--seed`` is common to all.
+OPTIONS: dict[str, list[tuple[str, str, Callable[[str], Any], str]]] = {
+    "safe-table": [
+        ("--episodes", "episodes", int, "episodes per robot and beta (default 100)"),
+        ("--robots", "robots", _names, "comma-separated subset of point,car,quadrotor"),
+        ("--betas", "betas", _floats, "comma-separated betas (default 0.5,0.9,0.95,0.99)"),
+        ("--noise-point", "noise_point", float, "noise scale of the point robot (m per step)"),
+        ("--noise-car", "noise_car", float, "noise scale of the car (m per step)"),
+        ("--noise-quadrotor", "noise_quadrotor", float, "noise scale of the quadrotor (m per step)"),
+    ],
+    "subgoal-dataset": [
+        ("--samples", "samples", int, "number of samples"),
+        ("--shard-size", "shard_size", int, "samples per shard (default 5000)"),
+        ("--trap-probability", "params.trap_probability", float, "probability of a U or L trap across the line to the goal"),
+    ],
+    "idnp": [
+        ("--n", "n", int, "number of initial conditions (default 200)"),
+        ("--iterations", "iterations", int, "iterations of the IDNP loop per case (default 15)"),
+        ("--optimizer-iterations", "optimizer_iterations", int, "iterations of the NLP alone (default 400)"),
+    ],
+}
+
+#: Boolean switches: (flag, field, value when given, help).
+SWITCHES: dict[str, list[tuple[str, str, bool, str]]] = {
+    "safe-table": [("--no-baselines", "baselines", False, "skip the car's fixed-gain and open-loop baselines")],
+    "idnp": [
+        ("--uniform", "uniform", True, "also run fixed-grid IDNP on the uniform grid that resolves the passage"),
+        ("--no-max-level-penalty", "no_max_level_penalty", True, "pure Algorithm 1: no penalty adaptation at the deepest level"),
+    ],
+}
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m ddpkit.experiments", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
+    for name, exp in EXPERIMENTS.items():
+        q = sub.add_parser(name, help=exp.about, description=f"{exp.about}. Mirrors the binary `{exp.binary}`.")
+        q.add_argument("--executor", default="sequential", help=f"one of {', '.join(EXECUTORS)} (default sequential)")
+        q.add_argument("--workers", type=int, default=None, help="processes (default: all cores), or CPUs of a private local Ray cluster")
+        q.add_argument("--address", default=None, help="Ray cluster: auto, host:port or ray://host:port (default: a private local cluster)")
+        q.add_argument("--seed", type=int, default=None, help="base seed (default: the binary's)")
+        q.add_argument("--out", default=f"out/{name}", help="output directory: the binary's files and the task store")
+        q.add_argument("--config", default=None, help="more configuration fields as a JSON object")
+        q.add_argument("--no-progress", action="store_true", help="no progress bar")
+        for flag, field, kind, text in OPTIONS.get(name, []):
+            q.add_argument(flag, dest=f"cfg_{field}", type=kind, default=None, help=text)
+        for flag, field, value, text in SWITCHES.get(name, []):
+            q.add_argument(flag, dest=f"cfg_{field}", action="store_const", const=value, default=None, help=text)
+    return p
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    args = parser().parse_args(argv)
+    config: dict[str, Any] = {}
+    if args.config:
+        try:
+            extra = json.loads(args.config)
+        except ValueError as e:
+            print(f"error: --config: not JSON: {e}", file=sys.stderr)
+            return 2
+        if not isinstance(extra, dict):
+            print("error: --config: must be a JSON object", file=sys.stderr)
+            return 2
+        config.update(extra)
+    if args.seed is not None:
+        config["seed"] = args.seed
+    for key, value in vars(args).items():
+        if key.startswith("cfg_") and value is not None:
+            # "params.trap_probability" sets a field of a nested object.
+            *path, leaf = key[4:].split(".")
+            node = config
+            for part in path:
+                node = node.setdefault(part, {})
+            node[leaf] = value
+    if args.address is not None and args.executor != "ray":
+        print(f"error: --address is for the ray executor, not {args.executor!r}", file=sys.stderr)
+        return 2
+    try:
+        summary = run_sweep(
+            args.experiment,
+            config,
+            executor=args.executor,
+            out_dir=args.out,
+            workers=args.workers,
+            address=args.address,
+            progress=not args.no_progress,
+            command=" ".join(["python -m ddpkit.experiments", *(argv if argv is not None else sys.argv[1:])]),
+        )
+    except ExperimentError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    if summary.text:
+        print(summary.text, end="" if summary.text.endswith("\n") else "\n")
+    print(summary.line())
+    if summary.failed:
+        print(f"{summary.failed} task(s) failed; see {args.out}/failed.json (a rerun retries them)", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -121,3 +121,14 @@ def test_winding_tells_the_sides_apart() -> None:
     wa, wb = family.winding(above, obstacle)[0], family.winding(below, obstacle)[0]
     assert wa == pytest.approx(-math.pi) and wb == pytest.approx(math.pi)
     assert abs(wa - wb) > math.pi
+
+
+def test_repeats_default_and_median() -> None:
+    # Every solver is timed `--repeats` times (default 3) on the same problem and its median kept,
+    # so one solve slowed by the machine's load does not make a "worst" problem.
+    assert family.build_parser().parse_args(["--problems", "3", "--seed", "1"]).repeats == 3
+    spec = family.first_valid("point", 1, 0)[1]
+    rec = family.solve_problem(spec, repeats=3, peers=())
+    d = rec["solvers"]["ddpkit"]
+    assert len(d["ms_all"]) == 3
+    assert d["ms"] == pytest.approx(sorted(d["ms_all"])[1])

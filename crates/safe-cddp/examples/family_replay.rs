@@ -7,6 +7,10 @@
 //! cargo run --release -p safe-cddp --example family_replay -- family.json [warm_up] [mu_init] \
 //!     [mu_factor] [mu_final] [inner] [relaxation]
 //! ```
+//!
+//! Environment: `THIRD_MU=3e-2` adds the portfolio's third start
+//! (`Settings::portfolio_third_mu`); `AL_RHO`, `AL_INNER`, `AL_TOL` set the augmented
+//! Lagrangian; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print per-solve details.
 use std::time::Instant;
 
 use safe_cddp::benchmark::BenchmarkProblem;
@@ -49,6 +53,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("AL_INNER") {
         s.al_cold_inner_iterations = v as usize;
+    }
+    if let Some(v) = env("THIRD_MU") {
+        s.portfolio_third_mu = Some(v);
     }
     if let Some(v) = env("AL_TOL") {
         s.al_inner_tolerance = v;

@@ -166,6 +166,8 @@ where
     report: Report,
     /// The warm-up of the start now running (`None`: the settings' rule).
     member: Option<WarmUp>,
+    /// The barrier's initial `mu` of the start now running (`None`: the settings').
+    mu_init: Option<f64>,
 }
 
 impl<NX: Dim, NU: Dim> std::fmt::Debug for SafeCddpSolver<NX, NU>
@@ -244,6 +246,7 @@ where
                 best: vec![dims.u_zeros(); cap],
                 report: Report::new(settings.max_iterations + 1),
                 member: None,
+                mu_init: None,
             },
         })
     }
@@ -508,8 +511,9 @@ where
         Ok(&self.report)
     }
 
-    /// [`WarmUp::Portfolio`]: solves from the initial guess with each warm-up in turn and keeps
-    /// the better solution (see [`better`]).
+    /// [`WarmUp::Portfolio`]: solves from the initial guess with each warm-up in turn (and the
+    /// barrier from [`Settings::portfolio_third_mu`], when set) and keeps the best solution (see
+    /// [`better`]).
     fn solve_portfolio(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
         let start = Instant::now();
         let n = self.core.n;
@@ -520,25 +524,46 @@ where
         let p = &mut self.portfolio;
         p.best[..n].clone_from_slice(&self.core.traj.us[..n]);
         std::mem::swap(&mut self.report, &mut p.report);
-        self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
-        p.member = Some(WarmUp::Barrier);
-        self.forget();
-        self.solve_from_start(problem)?;
-        self.portfolio.member = None;
-        if better(&self.portfolio.report, &self.report, self.settings.constraint_tolerance) {
-            // Keep the first start's solution: its trajectory, and the gains and multipliers of
-            // a backward pass there (what the solve ended with).
-            std::mem::swap(&mut self.report, &mut self.portfolio.report);
-            self.core.traj.us[..n].clone_from_slice(&self.portfolio.best[..n]);
-            self.core.rollout(problem);
-            self.warm.active = false;
-            self.linearize_now(problem);
-            let _ = self.compute_direction(problem);
-            self.warm.lambda.copy_from_slice(&self.rows.lambda);
-            self.refresh_merit();
+        let tol = self.settings.constraint_tolerance;
+        let mut discarded = 0;
+        let mut discarded_qps = crate::qp::QpStats::default();
+        let mut starts = std::iter::once(None)
+            .chain(self.settings.portfolio_third_mu.map(Some))
+            .peekable();
+        while let Some(mu) = starts.next() {
+            let p = &mut self.portfolio;
+            self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
+            p.member = Some(WarmUp::Barrier);
+            p.mu_init = mu;
+            self.forget();
+            self.solve_from_start(problem)?;
+            // On a tie the later start is kept.
+            let keep_new = !better(&self.portfolio.report, &self.report, tol);
+            let p = &mut self.portfolio;
+            let lost = if keep_new { &p.report } else { &self.report };
+            discarded += lost.iterations;
+            discarded_qps += lost.qp;
+            let last = starts.peek().is_none();
+            if last && !keep_new {
+                // Keep the earlier solution: its trajectory, and the gains and multipliers of a
+                // backward pass there (what its solve ended with).
+                std::mem::swap(&mut self.report, &mut p.report);
+                self.core.traj.us[..n].clone_from_slice(&p.best[..n]);
+                self.core.rollout(problem);
+                self.warm.active = false;
+                self.linearize_now(problem);
+                let _ = self.compute_direction(problem);
+                self.warm.lambda.copy_from_slice(&self.rows.lambda);
+                self.refresh_merit();
+            } else if !last && keep_new {
+                p.best[..n].clone_from_slice(&self.core.traj.us[..n]);
+                std::mem::swap(&mut self.report, &mut p.report);
+            }
         }
-        self.report.discarded_iterations = self.portfolio.report.iterations;
-        let discarded_qps = self.portfolio.report.qp;
+        let p = &mut self.portfolio;
+        p.member = None;
+        p.mu_init = None;
+        self.report.discarded_iterations = discarded;
         self.report.qp += discarded_qps;
         self.report.solve_time = start.elapsed();
         Ok(())
@@ -665,7 +690,7 @@ where
             && self.warm.cold
             && max <= s.al_switch_violation
             && matches!(method, WarmUp::Barrier | WarmUp::Portfolio);
-        self.warm.mu = s.barrier_mu_init;
+        self.warm.mu = self.portfolio.mu_init.unwrap_or(s.barrier_mu_init);
         self.warm.fresh = true;
         self.warm.from_cold = self.warm.cold;
         self.warm.rho = self.warm.rho.max(s.al_rho_init);

@@ -655,10 +655,13 @@ impl Program {
         let hess = &mut ws.hess[..self.pattern.len()];
         hess.fill(0.0);
         for c in &self.curvature {
-            let coef = bar[c.r as usize] * s[c.k as usize];
-            if coef == 0.0 {
+            // A node without adjoint, or without curvature here, adds nothing (never
+            // `0 * inf`).
+            let (b, k) = (bar[c.r as usize], s[c.k as usize]);
+            if b == 0.0 || k == 0.0 {
                 continue;
             }
+            let coef = b * k;
             for &(h, u, w) in &self.terms[c.terms.0 as usize..c.terms.1 as usize] {
                 hess[h as usize] += coef * dot[u as usize] * dot[w as usize];
             }

@@ -99,19 +99,49 @@ const ONE: u32 = 1;
 const MINUS_ONE: u32 = 2;
 /// The zero slot of `dot`.
 const DOT_ZERO: u32 = 0;
+/// The slot of `dot` holding 1 (every input's tangent entry).
+const DOT_ONE: u32 = 1;
 /// While compiling: "no partial" (then read as the constant zero).
 const NONE: u32 = u32::MAX;
+/// While compiling: tag of a tangent entry computed at run time (they are placed after the
+/// constant entries when the program is finished).
+const RUNTIME: u32 = 1 << 31;
+/// Largest number of terms a linear combination of tangents keeps symbolic; a longer one is
+/// materialised (bounds the work of materialising it).
+const MAX_TERMS: usize = 8;
+
+static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+/// Identifies a compiled program, so that a workspace loads its constants once for a run of
+/// evaluations of one model (every knot of a solve) rather than at every call. Equal for
+/// comparison: two compilations of one tape are equal programs.
+#[derive(Debug, Clone, Copy)]
+struct ProgramId(u64);
+
+impl PartialEq for ProgramId {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
 
 /// A tape compiled for evaluation (see the module docs). Immutable and `Send + Sync`; built once
 /// per model.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Program {
+    id: ProgramId,
     n_inputs: usize,
-    /// The constants `0, 1, -1` and the tape's, copied to `s[n_inputs..]` before every run.
-    consts: Vec<f64>,
+    /// The constants `0, 1, -1` and the tape's, at `s[n_inputs..n_inputs + n_consts]`.
+    n_consts: usize,
+    /// Values and partials end at `n_slots`; the constant coefficients of tangent combinations
+    /// follow.
     n_slots: usize,
+    /// `s` with the constants and coefficients in place (the rest is written by every run).
+    s_template: Vec<f64>,
     instrs: Vec<Instr>,
     outputs: Vec<u32>,
+    /// The constant tangent entries (`0`, `1`, and the entries of linear combinations of the
+    /// inputs); run-time entries follow, up to `n_dot`.
+    dot_template: Vec<f64>,
     n_dot: usize,
     /// Every node's tangent.
     jacobian: Vec<Fma>,
@@ -141,6 +171,8 @@ pub struct ProgramWorkspace {
     pub bar: Vec<f64>,
     /// The lower-triangle Hessian entries at [`Program::hessian_pattern`].
     pub hess: Vec<f64>,
+    /// The program whose constants are loaded (0: none).
+    loaded: u64,
 }
 
 fn grow(v: &mut Vec<f64>, n: usize) {
@@ -324,76 +356,71 @@ impl Program {
         for k in 0..n {
             cols[k] = &inputs[k];
         }
-        // dot[0] = 0, dot[1 + k] = 1 (input k); operations after.
-        let mut dot_off = vec![0u32; n_values];
-        let mut n_dot = 1 + n as u32;
-        for k in 0..n {
-            dot_off[k] = 1 + k as u32;
-        }
-        for v in n + consts.len()..n_values {
-            dot_off[v] = n_dot;
-            n_dot += cols[v].len() as u32;
-        }
-        let fma_of = |v: usize, out: &mut Vec<Fma>| {
-            let (pa, pb) = first[v];
-            let (a, b) = args[v];
-            let find = |arg: Option<u32>, c: u32| {
-                let arg = arg? as usize;
-                let j = cols[arg].binary_search(&c).ok()?;
-                Some(dot_off[arg] + j as u32)
+        // Linear operations with constant coefficients: `(arg, coefficient)` pairs.
+        let const_value = |x: u32| {
+            let k = x as usize;
+            (k >= n && k < n + consts.len()).then(|| consts[k - n])
+        };
+        let mut linear: Vec<Option<Vec<(u32, f64)>>> = vec![None; n_values];
+        for ins in &instrs {
+            let (a, b, v) = (ins.a, ins.b, ins.dst as usize);
+            linear[v] = match ins.kind {
+                Kind::Add => Some(vec![(a, 1.0), (b, 1.0)]),
+                Kind::Sub => Some(vec![(a, 1.0), (b, -1.0)]),
+                Kind::Neg => Some(vec![(a, -1.0)]),
+                Kind::Mul => match (const_value(a), const_value(b)) {
+                    (Some(c), None) => Some(vec![(b, c)]),
+                    (None, Some(c)) => Some(vec![(a, c)]),
+                    _ => None,
+                },
+                Kind::Binary(Binary::Div) => const_value(b).map(|c| vec![(a, 1.0 / c)]),
+                _ => None,
             };
-            for (j, &c) in cols[v].iter().enumerate() {
-                let o = dot_off[v] + j as u32;
-                let f = match (find(a, c), find(b, c)) {
-                    (Some(x), Some(y)) => Fma {
-                        out: o,
-                        p: pa,
-                        a: x,
-                        q: pb,
-                        b: y,
-                    },
-                    (Some(x), None) => Fma {
-                        out: o,
-                        p: pa,
-                        a: x,
-                        q: off(ZERO),
-                        b: DOT_ZERO,
-                    },
-                    (None, Some(y)) => Fma {
-                        out: o,
-                        p: pb,
-                        a: y,
-                        q: off(ZERO),
-                        b: DOT_ZERO,
-                    },
-                    (None, None) => Fma {
-                        out: o,
-                        p: off(ZERO),
-                        a: DOT_ZERO,
-                        q: off(ZERO),
-                        b: DOT_ZERO,
-                    },
-                };
-                out.push(f);
+            // Constant arguments carry no tangent.
+            if let Some(l) = &mut linear[v] {
+                l.retain(|&(x, _)| const_value(x).is_none());
             }
+        }
+        let mut tc = TangentCompiler {
+            n_values,
+            coef_base: n_slots as u32,
+            coefs: Vec::new(),
+            coef_of: BTreeMap::new(),
+            template: vec![0.0, 1.0],
+            records: Vec::new(),
+            n_runtime: 0,
         };
         let op_slots = n + consts.len()..n_values;
-        let mut jacobian = Vec::new();
-        for v in op_slots.clone() {
-            fma_of(v, &mut jacobian);
-        }
+        let ctx = Ctx {
+            n,
+            zero: off(ZERO),
+            cols: &cols,
+            first: &first,
+            args: &args,
+            linear: &linear,
+        };
+        let all: Vec<bool> = vec![true; n_values];
+        let outputs: Vec<u32> = tape.outputs().iter().map(|&o| slot[o as usize]).collect();
+        let jac_state = tc.compile(&ctx, &all, &outputs);
+        let jacobian = std::mem::take(&mut tc.records);
         let mut jacobian_entries = Vec::new();
-        for (i, &o) in tape.outputs().iter().enumerate() {
-            let v = slot[o as usize] as usize;
-            for (j, &c) in cols[v].iter().enumerate() {
-                jacobian_entries.push((i as u32, c, dot_off[v] + j as u32));
+        for (i, &v) in outputs.iter().enumerate() {
+            for (j, &c) in cols[v as usize].iter().enumerate() {
+                jacobian_entries.push((
+                    i as u32,
+                    c,
+                    jac_state.mat[v as usize].as_ref().map_or(DOT_ZERO, |m| m[j]),
+                ));
             }
         }
+        let jac_runtime = tc.n_runtime;
+        tc.n_runtime = 0;
 
         // Curvature terms: for every nonlinear node, the pairs of argument tangent entries in
-        // the kept part of the Hessian.
+        // the kept part of the Hessian, as (row, col, node u, entry p, node w, entry q).
         let has_tangent = |x: Option<u32>| x.is_some_and(|x| !cols[x as usize].is_empty());
-        let mut raw: Vec<(u32, u32, Vec<(u32, u32, u32, u32)>)> = Vec::new(); // (r, k, [(row, col, u, w)])
+        type Raw = (u32, u32, Vec<(u32, u32, u32, u32, u32, u32)>);
+        let mut raw: Vec<Raw> = Vec::new();
         let mut curved = vec![false; n_values];
         for (i, node) in nodes.iter().enumerate() {
             let (aa, ab, bb) = curvature_kinds(node);
@@ -416,11 +443,11 @@ impl Program {
             for (k, pairs) in kinds {
                 let mut t = Vec::new();
                 for (u, w) in pairs {
-                    let (u, w) = (u.unwrap_or(0) as usize, w.unwrap_or(0) as usize);
-                    for (p, &cu) in cols[u].iter().enumerate() {
-                        for (q, &cw) in cols[w].iter().enumerate() {
+                    let (u, w) = (u.unwrap_or(0), w.unwrap_or(0));
+                    for (p, &cu) in cols[u as usize].iter().enumerate() {
+                        for (q, &cw) in cols[w as usize].iter().enumerate() {
                             if cu >= cw && (cu as usize) < hessian_rows {
-                                t.push((cu, cw, dot_off[u] + p as u32, dot_off[w] + q as u32));
+                                t.push((cu, cw, u, p as u32, w, q as u32));
                             }
                         }
                     }
@@ -431,9 +458,34 @@ impl Program {
                 }
             }
         }
+        // Tangents the curvature terms read, and what they depend on.
+        let mut relevant = vec![false; n_values];
+        let mut required = Vec::new();
+        for (r, _, _) in &raw {
+            let (a, b) = args[*r as usize];
+            for x in [a, b].into_iter().flatten() {
+                relevant[x as usize] = true;
+                required.push(x);
+            }
+        }
+        for v in op_slots.clone().rev() {
+            if relevant[v] {
+                let (a, b) = args[v];
+                for x in [a, b].into_iter().flatten() {
+                    relevant[x as usize] = true;
+                }
+            }
+        }
+        required.sort_unstable();
+        required.dedup();
+        let hess_state = tc.compile(&ctx, &relevant, &required);
+        let hess_tangents = std::mem::take(&mut tc.records);
+        let hess_runtime = tc.n_runtime;
+        let entry = |v: u32, j: u32| hess_state.mat[v as usize].as_ref().map_or(DOT_ZERO, |m| m[j as usize]);
+
         let mut pattern: Vec<(u32, u32)> = raw
             .iter()
-            .flat_map(|(_, _, t)| t.iter().map(|&(r, c, _, _)| (r, c)))
+            .flat_map(|(_, _, t)| t.iter().map(|&(r, c, ..)| (r, c)))
             .collect();
         pattern.sort_unstable();
         pattern.dedup();
@@ -441,37 +493,15 @@ impl Program {
         let mut terms = Vec::new();
         for (r, k, t) in raw {
             let start = terms.len() as u32;
-            for (row, col, u, w) in t {
+            for (row, col, u, p, w, q) in t {
                 let h = pattern.binary_search(&(row, col)).unwrap_or(0) as u32;
-                terms.push((h, u, w));
+                terms.push((h, entry(u, p), entry(w, q)));
             }
             curvature.push(Curvature {
                 r,
                 k,
                 terms: (start, terms.len() as u32),
             });
-        }
-        // Tangents the curvature terms read, and everything they depend on.
-        let mut need_tangent = vec![false; n_values];
-        for c in &curvature {
-            let (a, b) = args[c.r as usize];
-            for x in [a, b].into_iter().flatten() {
-                need_tangent[x as usize] = true;
-            }
-        }
-        for v in op_slots.clone().rev() {
-            if need_tangent[v] {
-                let (a, b) = args[v];
-                for x in [a, b].into_iter().flatten() {
-                    need_tangent[x as usize] = true;
-                }
-            }
-        }
-        let mut hess_tangents = Vec::new();
-        for v in op_slots.clone() {
-            if need_tangent[v] {
-                fma_of(v, &mut hess_tangents);
-            }
         }
         // Adjoints are needed at curved nodes, at the inputs (the gradient) and on every path
         // between them.
@@ -499,13 +529,37 @@ impl Program {
             }
         }
         let bar_slots = (0..n_values as u32).filter(|&v| need_bar[v as usize]).collect();
+        // Runtime tangent entries follow the template.
+        let base = tc.template.len() as u32;
+        let fix_dot = |x: u32| if x & RUNTIME != 0 { base + (x & !RUNTIME) } else { x };
+        let fix_fma = |f: &Fma| Fma {
+            out: fix_dot(f.out),
+            p: f.p,
+            a: fix_dot(f.a),
+            q: f.q,
+            b: fix_dot(f.b),
+        };
+        let jacobian = jacobian.iter().map(fix_fma).collect();
+        let hess_tangents = hess_tangents.iter().map(fix_fma).collect();
+        for e in &mut jacobian_entries {
+            e.2 = fix_dot(e.2);
+        }
+        for t in &mut terms {
+            *t = (t.0, fix_dot(t.1), fix_dot(t.2));
+        }
+        let mut s_template = vec![0.0; n_slots + tc.coefs.len()];
+        s_template[n..n + consts.len()].copy_from_slice(&consts);
+        s_template[n_slots..].copy_from_slice(&tc.coefs);
         Program {
+            id: ProgramId(NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed)),
             n_inputs: n,
-            consts,
+            n_consts: consts.len(),
+            s_template,
             n_slots,
             instrs,
-            outputs: tape.outputs().iter().map(|&o| slot[o as usize]).collect(),
-            n_dot: n_dot as usize,
+            outputs,
+            dot_template: tc.template,
+            n_dot: (base + jac_runtime.max(hess_runtime)) as usize,
             jacobian,
             jacobian_entries,
             hess_tangents,
@@ -526,12 +580,24 @@ impl Program {
     /// instructions: values, with the first partials (`ORDER >= 1`) and second partials
     /// (`ORDER == 2`).
     fn run<const ORDER: u8>(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
-        grow(&mut ws.s, self.n_slots);
         let n = self.n_inputs;
-        let s = &mut ws.s[..self.n_slots];
-        s[..x.len()].copy_from_slice(x);
-        s[x.len()..n].copy_from_slice(u);
-        s[n..n + self.consts.len()].copy_from_slice(&self.consts);
+        if ws.loaded != self.id.0 {
+            // Constants, coefficients and constant tangent entries: nothing else writes there.
+            let t = &self.s_template;
+            grow(&mut ws.s, t.len());
+            ws.s[n..n + self.n_consts].copy_from_slice(&t[n..n + self.n_consts]);
+            ws.s[self.n_slots..t.len()].copy_from_slice(&t[self.n_slots..]);
+            grow(&mut ws.dot, self.n_dot);
+            ws.dot[..self.dot_template.len()].copy_from_slice(&self.dot_template);
+            ws.loaded = self.id.0;
+        }
+        let s = &mut ws.s[..self.s_template.len()];
+        for (d, v) in s[..x.len()].iter_mut().zip(x) {
+            *d = *v;
+        }
+        for (d, v) in s[x.len()..n].iter_mut().zip(u) {
+            *d = *v;
+        }
         for ins in &self.instrs {
             let (a, b, d) = (ins.a as usize, ins.b as usize, ins.d as usize);
             let v = match ins.kind {
@@ -595,10 +661,7 @@ impl Program {
     }
 
     fn tangents(&self, ws: &mut ProgramWorkspace, list: &[Fma]) {
-        grow(&mut ws.dot, self.n_dot);
         let (s, dot) = (&ws.s, &mut ws.dot[..self.n_dot]);
-        dot[0] = 0.0;
-        dot[1..=self.n_inputs].fill(1.0);
         for f in list {
             dot[f.out as usize] = s[f.p as usize] * dot[f.a as usize] + s[f.q as usize] * dot[f.b as usize];
         }
@@ -671,5 +734,192 @@ impl Program {
     /// `(row, col)` of every Hessian entry [`Program::second_order`] forms (`row >= col`).
     pub fn hessian_pattern(&self) -> &[(u32, u32)] {
         &self.pattern
+    }
+}
+
+/// What the tangent compiler reads about the values.
+struct Ctx<'a> {
+    n: usize,
+    /// The slot of the constant 0 in `s`.
+    zero: u32,
+    cols: &'a [&'a [u32]],
+    first: &'a [(u32, u32)],
+    args: &'a [(Option<u32>, Option<u32>)],
+    linear: &'a [Option<Vec<(u32, f64)>>],
+}
+
+/// Where values' tangents are after one compilation: `mat[v]` the entries of a materialised
+/// value (one `dot` index per column), or `lin[v]` a linear combination of materialised values'
+/// tangents with constant coefficients.
+struct TangentState {
+    mat: Vec<Option<Vec<u32>>>,
+    lin: Vec<Option<BTreeMap<u32, f64>>>,
+}
+
+impl TangentState {
+    fn entry(&self, ctx: &Ctx, x: u32, c: u32) -> Option<u32> {
+        let j = ctx.cols[x as usize].binary_search(&c).ok()?;
+        self.mat[x as usize].as_ref().map(|m| m[j])
+    }
+}
+
+/// Compiles forward tangents into multiply-add records. A linear operation with constant
+/// coefficients (`a + b`, `a - b`, `-a`, `c a`, `a / c`) is not swept at all: its tangent stays
+/// a combination of earlier tangents, materialised only where an output or a nonlinear operation
+/// reads it, and entries that are combinations of the inputs alone are constants (so the
+/// `x + dt f` of an integrator costs one multiply-add per entry of `f`, and an entry `1` of
+/// `x` nothing).
+struct TangentCompiler {
+    n_values: usize,
+    coef_base: u32,
+    coefs: Vec<f64>,
+    coef_of: BTreeMap<u64, u32>,
+    template: Vec<f64>,
+    records: Vec<Fma>,
+    n_runtime: u32,
+}
+
+impl TangentCompiler {
+    /// The `s` slot of the coefficient `c`.
+    fn coef(&mut self, c: f64) -> u32 {
+        if let Some(&k) = self.coef_of.get(&c.to_bits()) {
+            return k;
+        }
+        let k = self.coef_base + self.coefs.len() as u32;
+        self.coefs.push(c);
+        self.coef_of.insert(c.to_bits(), k);
+        k
+    }
+
+    fn constant_entry(&mut self, c: f64) -> u32 {
+        if c == 0.0 {
+            DOT_ZERO
+        } else if c == 1.0 {
+            DOT_ONE
+        } else {
+            self.template.push(c);
+            (self.template.len() - 1) as u32
+        }
+    }
+
+    fn runtime(&mut self) -> u32 {
+        let r = RUNTIME | self.n_runtime;
+        self.n_runtime += 1;
+        r
+    }
+
+    /// Tangents of the `relevant` values, materialising the `required` ones.
+    fn compile(&mut self, ctx: &Ctx, relevant: &[bool], required: &[u32]) -> TangentState {
+        let mut st = TangentState {
+            mat: vec![None; self.n_values],
+            lin: vec![None; self.n_values],
+        };
+        for k in 0..ctx.n {
+            st.mat[k] = Some(vec![DOT_ONE]);
+        }
+        for v in ctx.n..self.n_values {
+            if !relevant[v] || ctx.cols[v].is_empty() {
+                continue;
+            }
+            if let Some(l) = &ctx.linear[v] {
+                let mut m: BTreeMap<u32, f64> = BTreeMap::new();
+                for &(x, c) in l {
+                    match &st.lin[x as usize] {
+                        Some(lx) => {
+                            for (&a, &w) in lx {
+                                *m.entry(a).or_insert(0.0) += c * w;
+                            }
+                        }
+                        None => *m.entry(x).or_insert(0.0) += c,
+                    }
+                }
+                st.lin[v] = Some(m);
+                if st.lin[v].as_ref().is_some_and(|m| m.len() > MAX_TERMS) {
+                    self.materialise(ctx, &mut st, v as u32);
+                }
+                continue;
+            }
+            let (a, b) = ctx.args[v];
+            for x in [a, b].into_iter().flatten() {
+                if st.mat[x as usize].is_none() && st.lin[x as usize].is_some() {
+                    self.materialise(ctx, &mut st, x);
+                }
+            }
+            let (pa, pb) = ctx.first[v];
+            let mut entries = Vec::with_capacity(ctx.cols[v].len());
+            for &c in ctx.cols[v] {
+                let ea = a.and_then(|x| st.entry(ctx, x, c));
+                let eb = b.and_then(|x| st.entry(ctx, x, c));
+                let out = self.runtime();
+                let (p, x, q, y) = match (ea, eb) {
+                    (Some(x), Some(y)) => (pa, x, pb, y),
+                    (Some(x), None) => (pa, x, ctx.zero, DOT_ZERO),
+                    (None, Some(y)) => (pb, y, ctx.zero, DOT_ZERO),
+                    (None, None) => (ctx.zero, DOT_ZERO, ctx.zero, DOT_ZERO),
+                };
+                self.records.push(Fma { out, p, a: x, q, b: y });
+                entries.push(out);
+            }
+            st.mat[v] = Some(entries);
+        }
+        for &v in required {
+            if st.mat[v as usize].is_none() && st.lin[v as usize].is_some() {
+                self.materialise(ctx, &mut st, v);
+            }
+        }
+        st
+    }
+
+    /// Turns the combination `lin[v]` into entries: constants where only inputs contribute,
+    /// the entry itself where one tangent contributes with coefficient 1, else a chain of
+    /// multiply-adds.
+    fn materialise(&mut self, ctx: &Ctx, st: &mut TangentState, v: u32) {
+        let Some(m) = st.lin[v as usize].take() else {
+            return;
+        };
+        let mut entries = Vec::with_capacity(ctx.cols[v as usize].len());
+        for &c in ctx.cols[v as usize] {
+            let mut constant = 0.0;
+            let mut terms: Vec<(f64, u32)> = Vec::new();
+            for (&x, &w) in &m {
+                if let Some(e) = st.entry(ctx, x, c) {
+                    if e & RUNTIME == 0 {
+                        constant += w * self.template[e as usize];
+                    } else {
+                        terms.push((w, e));
+                    }
+                }
+            }
+            let e = match terms.as_slice() {
+                [] => self.constant_entry(constant),
+                [(w, e)] if *w == 1.0 && constant == 0.0 => *e,
+                _ => {
+                    let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(terms.len() + 1);
+                    if constant != 0.0 {
+                        pairs.push((self.coef(constant), DOT_ONE));
+                    }
+                    for &(w, e) in &terms {
+                        pairs.push((self.coef(w), e));
+                    }
+                    let out = self.runtime();
+                    let (p, a) = pairs[0];
+                    let (q, b) = pairs.get(1).copied().unwrap_or((ctx.zero, DOT_ZERO));
+                    self.records.push(Fma { out, p, a, q, b });
+                    let one = self.coef(1.0);
+                    for &(q, b) in pairs.iter().skip(2) {
+                        self.records.push(Fma {
+                            out,
+                            p: one,
+                            a: out,
+                            q,
+                            b,
+                        });
+                    }
+                    out
+                }
+            };
+            entries.push(e);
+        }
+        st.mat[v as usize] = Some(entries);
     }
 }

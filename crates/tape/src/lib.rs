@@ -42,5 +42,5 @@ pub use eval::Workspace;
 pub use file::TapeModel;
 pub use models::{TapeConstraint, TapeCost, TapeDynamics, TapeTerminal};
 pub use op::{Binary, Unary};
-pub use program::{Program, ProgramWorkspace};
+pub use program::{Needs, Program, ProgramWorkspace};
 pub use tape::{discretize, Integrator, Node, Tape, TapeBuilder};

@@ -18,7 +18,7 @@ use ddp_core::dims::{check_size, Alloc, DefaultAllocator, Dim, MatrixN, VectorN,
 use ddp_core::{Cost, CostDerivatives, Dynamics, Error, Result, TerminalCost, TerminalDerivatives};
 use safe_cddp::Constraint;
 
-use crate::program::{Program, ProgramWorkspace};
+use crate::program::{Needs, Program, ProgramWorkspace};
 use crate::tape::Tape;
 
 thread_local! {
@@ -139,7 +139,15 @@ impl TapeDynamics {
     pub fn new(tape: Tape, nx: usize, nu: usize) -> Result<Self> {
         check_dims("dynamics", nx, Some(nu))?;
         check_tape(&tape, "dynamics", nx + nu, Some(nx))?;
-        let prog = Program::new(&tape, nx + nu);
+        // The solver reads Jacobians without values and `V_x`-weighted Hessians without gradients.
+        let prog = Program::with_needs(
+            &tape,
+            Needs {
+                hessian_rows: nx + nu,
+                jacobian_values: false,
+                gradient: false,
+            },
+        );
         let jac = prog
             .jacobian_entries()
             .iter()
@@ -258,7 +266,14 @@ impl TapeCost {
     pub fn new(tape: Tape, nx: usize, nu: usize) -> Result<Self> {
         check_dims("cost", nx, Some(nu))?;
         check_tape(&tape, "cost", nx + nu, Some(1))?;
-        let prog = Program::new(&tape, nx + nu);
+        let prog = Program::with_needs(
+            &tape,
+            Needs {
+                hessian_rows: nx + nu,
+                jacobian_values: false,
+                gradient: true,
+            },
+        );
         let hess = hessian_slots(&prog, nx, nu);
         Ok(Self {
             tape: Arc::new(tape),
@@ -331,7 +346,14 @@ impl TapeTerminal {
     pub fn new(tape: Tape, nx: usize) -> Result<Self> {
         check_dims("terminal_cost", nx, None)?;
         check_tape(&tape, "terminal_cost", nx, Some(1))?;
-        let prog = Program::new(&tape, nx);
+        let prog = Program::with_needs(
+            &tape,
+            Needs {
+                hessian_rows: nx,
+                jacobian_values: false,
+                gradient: true,
+            },
+        );
         let hess = hessian_slots(&prog, nx, 0);
         Ok(Self {
             tape: Arc::new(tape),
@@ -404,8 +426,15 @@ impl TapeConstraint {
         check_dims("constraint", nx, nu)?;
         check_tape(&tape, "constraint", nx + nu.unwrap_or(0), None)?;
         let uses_control = (nx..tape.n_inputs()).any(|k| tape.uses_input(k));
-        // Only the `xx` block of a constraint's curvature is read.
-        let prog = Program::new(&tape, nx);
+        // Constraint Jacobians come with values; only the `xx` block of the curvature is read.
+        let prog = Program::with_needs(
+            &tape,
+            Needs {
+                hessian_rows: nx,
+                jacobian_values: true,
+                gradient: false,
+            },
+        );
         let hess = hessian_slots(&prog, nx, 0);
         Ok(Self {
             tape: Arc::new(tape),

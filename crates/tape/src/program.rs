@@ -138,6 +138,10 @@ pub struct Program {
     /// `s` with the constants and coefficients in place (the rest is written by every run).
     s_template: Vec<f64>,
     instrs: Vec<Instr>,
+    /// The instructions [`Program::jacobian`] and [`Program::second_order`] run: those whose
+    /// values or partials their sweeps read.
+    jacobian_instrs: Vec<Instr>,
+    hessian_instrs: Vec<Instr>,
     outputs: Vec<u32>,
     /// The constant tangent entries (`0`, `1`, and the entries of linear combinations of the
     /// inputs); run-time entries follow, up to `n_dot`.
@@ -157,6 +161,18 @@ pub struct Program {
     terms: Vec<(u32, u32, u32)>,
     /// `(row, col)` of `hess[h]`, `row >= col`, sorted.
     pattern: Vec<(u32, u32)>,
+}
+
+/// What a model reads from a [`Program`]'s runs; what it does not read is not computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Needs {
+    /// Hessian entries `(row, col)` kept: `row >= col` and `row < hessian_rows`.
+    pub hessian_rows: usize,
+    /// Whether [`Program::jacobian`] also computes the outputs' values.
+    pub jacobian_values: bool,
+    /// Whether [`Program::second_order`] computes the gradient and the outputs' values (a cost
+    /// reads both; dynamics and constraints only the Hessian).
+    pub gradient: bool,
 }
 
 /// Scratch of [`Program`] runs.
@@ -208,6 +224,19 @@ impl Program {
     /// `xx` block is read). Allocates the program; running it allocates nothing once the
     /// workspace has grown.
     pub fn new(tape: &Tape, hessian_rows: usize) -> Self {
+        Self::with_needs(
+            tape,
+            Needs {
+                hessian_rows,
+                jacobian_values: true,
+                gradient: true,
+            },
+        )
+    }
+
+    /// Compiles `tape` for a model that reads what `needs` says (the rest is not computed).
+    pub fn with_needs(tape: &Tape, needs: Needs) -> Self {
+        let hessian_rows = needs.hessian_rows;
         let n = tape.n_inputs();
         let nodes = tape.nodes();
         let mut consts = vec![0.0, 1.0, -1.0];
@@ -259,6 +288,7 @@ impl Program {
             order.push(i);
         }
         let mut instrs = Vec::with_capacity(order.len());
+        let mut widths: Vec<u32> = Vec::with_capacity(order.len());
         // Where each value slot's partials are: (d/da, d/db) slot and the second-partial slots
         // (aa, ab, bb), by value slot.
         let n_values = next as usize;
@@ -282,6 +312,7 @@ impl Program {
                     second[c as usize] = (d + 1, NONE, NONE);
                     args[s as usize] = (a, None);
                     args[c as usize] = (a, None);
+                    widths.push(2);
                     instrs.push(Instr {
                         kind: Kind::SinCos,
                         a: a.unwrap_or(0),
@@ -328,6 +359,7 @@ impl Program {
                 Node::Input(_) | Node::Const(_) => unreachable!("only operations own instructions"),
             };
             args[dst as usize] = (a, b);
+            widths.push(width);
             instrs.push(Instr {
                 kind,
                 a: a.unwrap_or(0),
@@ -507,7 +539,7 @@ impl Program {
         // between them.
         let mut need_bar = vec![false; n_values];
         for k in 0..n {
-            need_bar[k] = true;
+            need_bar[k] = needs.gradient;
         }
         for v in op_slots.clone() {
             let (a, b) = args[v];
@@ -539,14 +571,51 @@ impl Program {
             q: f.q,
             b: fix_dot(f.b),
         };
-        let jacobian = jacobian.iter().map(fix_fma).collect();
-        let hess_tangents = hess_tangents.iter().map(fix_fma).collect();
+        let jacobian: Vec<Fma> = jacobian.iter().map(fix_fma).collect();
+        let hess_tangents: Vec<Fma> = hess_tangents.iter().map(fix_fma).collect();
         for e in &mut jacobian_entries {
             e.2 = fix_dot(e.2);
         }
         for t in &mut terms {
             *t = (t.0, fix_dot(t.1), fix_dot(t.2));
         }
+        // The instructions each sweep needs: owners of the slots it reads, and their arguments.
+        let mut owner = vec![u32::MAX; n_slots];
+        for (i, ins) in instrs.iter().enumerate() {
+            owner[ins.dst as usize] = i as u32;
+            if ins.kind == Kind::SinCos {
+                owner[ins.b as usize] = i as u32;
+            }
+            for k in ins.d..ins.d + widths[i] {
+                owner[k as usize] = i as u32;
+            }
+        }
+        let needed = |reads: Vec<u32>| -> Vec<Instr> {
+            let mut mark = vec![false; instrs.len()];
+            let mut stack = reads;
+            while let Some(x) = stack.pop() {
+                let Some(&i) = owner.get(x as usize) else { continue };
+                if i == u32::MAX || mark[i as usize] {
+                    continue;
+                }
+                mark[i as usize] = true;
+                let ins = &instrs[i as usize];
+                stack.push(ins.a);
+                if matches!(ins.kind, Kind::Add | Kind::Sub | Kind::Mul | Kind::Binary(_)) {
+                    stack.push(ins.b);
+                }
+            }
+            instrs.iter().zip(&mark).filter(|(_, m)| **m).map(|(i, _)| *i).collect()
+        };
+        let out_reads = |on: bool| if on { outputs.clone() } else { Vec::new() };
+        let mut reads = out_reads(needs.jacobian_values);
+        reads.extend(jacobian.iter().flat_map(|f: &Fma| [f.p, f.q]));
+        let jacobian_instrs = needed(reads);
+        let mut reads = out_reads(needs.gradient);
+        reads.extend(hess_tangents.iter().flat_map(|f: &Fma| [f.p, f.q]));
+        reads.extend(adjoints.iter().map(|a| a.p));
+        reads.extend(curvature.iter().map(|c| c.k));
+        let hessian_instrs = needed(reads);
         let mut s_template = vec![0.0; n_slots + tc.coefs.len()];
         s_template[n..n + consts.len()].copy_from_slice(&consts);
         s_template[n_slots..].copy_from_slice(&tc.coefs);
@@ -557,6 +626,8 @@ impl Program {
             s_template,
             n_slots,
             instrs,
+            jacobian_instrs,
+            hessian_instrs,
             outputs,
             dot_template: tc.template,
             n_dot: (base + jac_runtime.max(hess_runtime)) as usize,
@@ -579,7 +650,7 @@ impl Program {
     /// Loads `z = (x, u)` (`x.len() + u.len() == n_inputs`) and the constants, then runs the
     /// instructions: values, with the first partials (`ORDER >= 1`) and second partials
     /// (`ORDER == 2`).
-    fn run<const ORDER: u8>(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
+    fn run<const ORDER: u8>(&self, instrs: &[Instr], ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
         let n = self.n_inputs;
         if ws.loaded != self.id.0 {
             // Constants, coefficients and constant tangent entries: nothing else writes there.
@@ -598,7 +669,7 @@ impl Program {
         for (d, v) in s[x.len()..n].iter_mut().zip(u) {
             *d = *v;
         }
-        for ins in &self.instrs {
+        for ins in instrs {
             let (a, b, d) = (ins.a as usize, ins.b as usize, ins.d as usize);
             let v = match ins.kind {
                 Kind::Add => s[a] + s[b],
@@ -675,16 +746,17 @@ impl Program {
 
     /// Writes the outputs at `z = (x, u)` to `out`.
     pub fn values(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64], out: &mut [f64]) {
-        self.run::<0>(ws, x, u);
+        self.run::<0>(&self.instrs, ws, x, u);
         for (o, &v) in out.iter_mut().zip(&self.outputs) {
             *o = ws.s[v as usize];
         }
     }
 
-    /// Values and Jacobian at `z = (x, u)`: afterwards [`Program::output`] gives the values and
-    /// `ws.dot[slot]` the entry of every [`Program::jacobian_entries`] item.
+    /// The Jacobian at `z = (x, u)`: afterwards `ws.dot[slot]` is the entry of every
+    /// [`Program::jacobian_entries`] item, and [`Program::output`] gives the values where
+    /// [`Needs::jacobian_values`].
     pub fn jacobian(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
-        self.run::<1>(ws, x, u);
+        self.run::<1>(&self.jacobian_instrs, ws, x, u);
         self.tangents(ws, &self.jacobian);
     }
 
@@ -693,11 +765,11 @@ impl Program {
         &self.jacobian_entries
     }
 
-    /// The weighted second derivatives at `z = (x, u)`: afterwards `ws.bar[k]` (`k <
-    /// n_inputs`) is the gradient of `lambda'F` and `ws.hess[h]` its Hessian entry at
-    /// [`Program::hessian_pattern`]`[h]`; [`Program::output`] gives the values.
+    /// The weighted second derivatives at `z = (x, u)`: afterwards `ws.hess[h]` is the Hessian
+    /// entry of `lambda'F` at [`Program::hessian_pattern`]`[h]`; where [`Needs::gradient`],
+    /// `ws.bar[k]` (`k < n_inputs`) is its gradient and [`Program::output`] gives the values.
     pub fn second_order(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64], lambda: &[f64]) {
-        self.run::<2>(ws, x, u);
+        self.run::<2>(&self.hessian_instrs, ws, x, u);
         self.tangents(ws, &self.hess_tangents);
         grow(&mut ws.bar, self.n_slots);
         let (s, dot, bar) = (&ws.s, &ws.dot, &mut ws.bar);

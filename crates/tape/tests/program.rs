@@ -2,7 +2,7 @@
 //! weighted gradients and Hessians): every operation, fused `sin`/`cos`, repeated arguments,
 //! inputs and constants as outputs, a Hessian row limit, and random tapes (proptest).
 
-use ddp_tape::{Binary, Program, ProgramWorkspace, Tape, TapeBuilder, Unary, Workspace};
+use ddp_tape::{Binary, Needs, Program, ProgramWorkspace, Tape, TapeBuilder, Unary, Workspace};
 use proptest::prelude::*;
 
 struct Reference {
@@ -122,6 +122,40 @@ fn check(t: &Tape, z: &[f64], lambda: &[f64], nx: usize, rows: usize) -> std::re
             if !close(hess[i][j], r.hess[i][j], hs) {
                 return Err(format!("hessian ({i}, {j}): {} vs {}", hess[i][j], r.hess[i][j]));
             }
+        }
+    }
+    // A program that computes neither values with the Jacobian nor the gradient (what dynamics
+    // read) gives the same Jacobian and Hessian.
+    let lean = Program::with_needs(
+        t,
+        Needs {
+            hessian_rows: rows,
+            jacobian_values: false,
+            gradient: false,
+        },
+    );
+    let mut ws2 = ProgramWorkspace::default();
+    lean.jacobian(&mut ws2, x, u);
+    for (e, &(i, c, slot)) in lean.jacobian_entries().iter().enumerate() {
+        let want = jac[i as usize][c as usize];
+        let got = ws2.dot[slot as usize];
+        if !(got == want || (got.is_nan() && want.is_nan())) {
+            return Err(format!("lean jacobian entry {e}: {got} vs {want}"));
+        }
+    }
+    lean.second_order(&mut ws2, x, u, lambda);
+    if lean.hessian_pattern() != p.hessian_pattern() {
+        return Err("lean hessian pattern differs".into());
+    }
+    for (h, (&a, &b)) in ws2
+        .hess
+        .iter()
+        .zip(&ws.hess)
+        .take(p.hessian_pattern().len())
+        .enumerate()
+    {
+        if !(a == b || (a.is_nan() && b.is_nan())) {
+            return Err(format!("lean hessian entry {h}: {a} vs {b}"));
         }
     }
     Ok(())

@@ -119,9 +119,10 @@ fn check_dims(field: &str, nx: usize, nu: Option<usize>) -> Result<()> {
 #[derive(Debug, Clone, PartialEq)]
 struct Compiled {
     prog: Program,
-    /// `(dot slot, offset)` of the Jacobian entries: offsets below `nx * nx` in `f_x`, the rest
-    /// in `f_u` after subtracting `nx * nx` (dynamics); unused by costs.
-    jac: Vec<(u32, u32)>,
+    /// `(dot slot, offset)` of the Jacobian entries in `f_x` and in `f_u` (dynamics; unused
+    /// by costs).
+    jac_x: Vec<(u32, u32)>,
+    jac_u: Vec<(u32, u32)>,
     hess: Vec<HessianSlot>,
 }
 
@@ -148,25 +149,26 @@ impl TapeDynamics {
                 gradient: false,
             },
         );
-        let jac = prog
-            .jacobian_entries()
-            .iter()
-            .map(|&(i, c, slot)| {
-                let (i, c) = (i as usize, c as usize);
-                let off = if c < nx {
-                    c * nx + i
-                } else {
-                    nx * nx + (c - nx) * nx + i
-                };
-                (slot, off as u32)
-            })
-            .collect();
+        let (mut jac_x, mut jac_u) = (Vec::new(), Vec::new());
+        for &(i, c, slot) in prog.jacobian_entries() {
+            let (i, c) = (i as usize, c as usize);
+            if c < nx {
+                jac_x.push((slot, (c * nx + i) as u32));
+            } else {
+                jac_u.push((slot, ((c - nx) * nx + i) as u32));
+            }
+        }
         let hess = hessian_slots(&prog, nx, nu);
         Ok(Self {
             tape: Arc::new(tape),
             nx,
             nu,
-            compiled: Arc::new(Compiled { prog, jac, hess }),
+            compiled: Arc::new(Compiled {
+                prog,
+                jac_x,
+                jac_u,
+                hess,
+            }),
         })
     }
     /// The tape.
@@ -212,16 +214,10 @@ where
         let c = &*self.compiled;
         with_ws(|ws| {
             c.prog.jacobian(ws, x.as_slice(), u.as_slice());
-            let (fx, fu) = (fx.as_mut_slice(), fu.as_mut_slice());
-            fx.fill(0.0);
-            fu.fill(0.0);
-            let nxx = (nx * nx) as u32;
-            for &(slot, off) in &c.jac {
-                let v = ws.dot[slot as usize];
-                if off < nxx {
-                    fx[off as usize] = v;
-                } else {
-                    fu[(off - nxx) as usize] = v;
+            for (m, entries) in [(fx.as_mut_slice(), &c.jac_x), (fu.as_mut_slice(), &c.jac_u)] {
+                m.fill(0.0);
+                for &(slot, off) in entries {
+                    m[off as usize] = ws.dot[slot as usize];
                 }
             }
         });
@@ -281,7 +277,8 @@ impl TapeCost {
             nu,
             compiled: Arc::new(Compiled {
                 prog,
-                jac: Vec::new(),
+                jac_x: Vec::new(),
+                jac_u: Vec::new(),
                 hess,
             }),
         })
@@ -360,7 +357,8 @@ impl TapeTerminal {
             nx,
             compiled: Arc::new(Compiled {
                 prog,
-                jac: Vec::new(),
+                jac_x: Vec::new(),
+                jac_u: Vec::new(),
                 hess,
             }),
         })
@@ -443,7 +441,8 @@ impl TapeConstraint {
             uses_control,
             compiled: Arc::new(Compiled {
                 prog,
-                jac: Vec::new(),
+                jac_x: Vec::new(),
+                jac_u: Vec::new(),
                 hess,
             }),
         })

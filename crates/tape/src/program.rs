@@ -191,6 +191,21 @@ pub struct ProgramWorkspace {
     loaded: u64,
 }
 
+/// `dst.copy_from_slice(src)` (equal lengths), inlined for the small sizes of robot states and
+/// controls: a `memcpy` call costs more than the copy.
+#[inline]
+fn copy_small(dst: &mut [f64], src: &[f64]) {
+    macro_rules! fixed {
+        ($($k:literal)*) => {
+            match src.len() {
+                $($k => dst[..$k].copy_from_slice(&src[..$k]),)*
+                _ => dst.copy_from_slice(src),
+            }
+        };
+    }
+    fixed!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16)
+}
+
 fn grow(v: &mut Vec<f64>, n: usize) {
     if v.len() < n {
         v.resize(n, 0.0);
@@ -663,12 +678,8 @@ impl Program {
             ws.loaded = self.id.0;
         }
         let s = &mut ws.s[..self.s_template.len()];
-        for (d, v) in s[..x.len()].iter_mut().zip(x) {
-            *d = *v;
-        }
-        for (d, v) in s[x.len()..n].iter_mut().zip(u) {
-            *d = *v;
-        }
+        copy_small(&mut s[..x.len()], x);
+        copy_small(&mut s[x.len()..n], u);
         for ins in instrs {
             let (a, b, d) = (ins.a as usize, ins.b as usize, ins.d as usize);
             let v = match ins.kind {

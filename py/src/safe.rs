@@ -1664,7 +1664,10 @@ impl Episode {
 impl Episode {
     /// Pickles as its fields.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (&'static str, Bound<'py, PyDict>))> {
-        Ok((crate::pickle::module_attr(py, "_unpickle_result")?, ("Episode", self.state(py)?)))
+        Ok((
+            crate::pickle::module_attr(py, "_unpickle_result")?,
+            ("Episode", self.state(py)?),
+        ))
     }
     /// Equal when every field is (arrays by value).
     fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {

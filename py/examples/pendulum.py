@@ -4,7 +4,7 @@ bounds are a box QP in every backward step, Tassa, Mansard and Todorov 2014).
     python py/examples/pendulum.py [figure.png]
 
 State `(theta, omega)` with `theta = 0` hanging down; `m l^2 omegadot = u - m g l sin(theta) - b omega`
-with `m = l = 1`, `b = 0.1`, and `|u| <= 2 N m` (holding it horizontal needs 9.81 N m).
+with `m = l = 1`, `b = 0.1`, and `|u| <= 2.5 N m` (holding it horizontal needs 9.81 N m).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from _common import save_figure
 import ddpkit
 
 M, L, B, G = 1.0, 1.0, 0.1, 9.81
-U_MAX = 2.0
+U_MAX = 2.5
 DT, N = 0.05, 120
 
 
@@ -30,7 +30,7 @@ def main() -> int:
         x0=np.zeros(2),
         dynamics=ddpkit.Dynamics.from_function(ode, nx=2, nu=1, dt=DT, integrator="rk4"),
         running_cost=ddpkit.Cost.from_function(lambda x, u: 0.01 * x[1] ** 2 + 0.01 * u[0] ** 2, nx=2, nu=1),
-        terminal_cost=ddpkit.Cost.from_function(lambda x: 100.0 * (x[0] - np.pi) ** 2 + 10.0 * x[1] ** 2, nx=2),
+        terminal_cost=ddpkit.Cost.from_function(lambda x: 1000.0 * (x[0] - np.pi) ** 2 + 100.0 * x[1] ** 2, nx=2),
         horizon=N,
         u_min=-U_MAX,
         u_max=U_MAX,

@@ -51,7 +51,7 @@ def test_pendulum_swings_up_within_its_torque_limit(tmp_path: Path) -> None:
     angle = float(line.split("final angle ")[1].split()[0])
     torque = float(line.split("largest |torque| ")[1].split()[0])
     assert abs(angle - np.pi) < 0.05, line
-    assert torque <= 2.0 + 1e-9, line
-    # The limit binds: with 2 N m against 9.81 N m of weight it must pump, saturating.
-    assert torque > 1.99, line
+    assert torque <= 2.5 + 1e-9, line
+    # The limit binds: with 2.5 N m against 9.81 N m of weight it must pump, saturating.
+    assert torque > 2.49, line
     assert (tmp_path / "pendulum.png").stat().st_size > 10_000

@@ -52,7 +52,11 @@ def main() -> int:
     sol = ddpkit.Solver(problem, method="ddp", max_iterations=500).solve()
     print(sol.table())
     err = np.abs(sol.xs[-1] - GOAL)
-    print(f"status {sol.status}, cost {sol.cost:.6f}, final state {np.round(sol.xs[-1], 4)} (goal {np.round(GOAL, 4)})")
+    q1, q2, w1, w2 = sol.xs[-1]
+    print(
+        f"status {sol.status}, cost {sol.cost:.6f}, final q1 {q1:.4f} q2 {q2:.4f} q1dot {w1:.4f} q2dot {w2:.4f} "
+        f"(goal q1 = pi = {np.pi:.4f}, q2 = 0)"
+    )
     save_figure(
         sys.argv[1] if len(sys.argv) > 1 else "acrobot.png",
         sol.xs,

@@ -39,7 +39,7 @@ def run_example(name: str, tmp_path: Path) -> str:
 
 def test_acrobot_swings_up(tmp_path: Path) -> None:
     out = run_example("acrobot", tmp_path)
-    line = next(x for x in out.splitlines() if x.startswith("status"))
+    line = next(x for x in out.splitlines() if x.startswith("status "))  # the summary, not the table's "status:"
     q1 = float(line.split("final q1 ")[1].split()[0])
     q2 = float(line.split(" q2 ")[1].split()[0])
     assert abs(q1 - np.pi) < 0.05 and abs(q2) < 0.05, line  # both links upright
@@ -48,7 +48,7 @@ def test_acrobot_swings_up(tmp_path: Path) -> None:
 
 def test_pendulum_swings_up_within_its_torque_limit(tmp_path: Path) -> None:
     out = run_example("pendulum", tmp_path)
-    line = next(x for x in out.splitlines() if x.startswith("status"))
+    line = next(x for x in out.splitlines() if x.startswith("status "))  # the summary, not the table's "status:"
     angle = float(line.split("final angle ")[1].split()[0])
     torque = float(line.split("largest |torque| ")[1].split()[0])
     assert abs(angle - np.pi) < 0.05, line

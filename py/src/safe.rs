@@ -1663,6 +1663,7 @@ impl Episode {
 #[pymethods]
 impl Episode {
     /// Pickles as its fields.
+    #[allow(clippy::type_complexity)]
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (&'static str, Bound<'py, PyDict>))> {
         Ok((
             crate::pickle::module_attr(py, "_unpickle_result")?,

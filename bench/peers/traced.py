@@ -17,7 +17,8 @@ terminal cost `l_N(x)` as SX `casadi.Function`s; every solver gets exactly these
   (FATROP's structure detection needs it), `expand = True`, IPOPT with `tol = 1e-8` and MUMPS,
   FATROP with its defaults.
 
-Every solver starts cold from the same guess (zero controls; the NLPs also get `x0` repeated),
+Every solver starts cold from the same guess (zero force for the cart-pole, hover thrust for the
+quadrotor; the NLPs also get `x0` repeated),
 single-threaded; solves are interleaved round-robin and the median wall time is reported. Each
 solution is judged by the same numpy code: the objective `sum l(x_k, u_k) + l_N(x_N)` evaluated
 with `F`, `l`, `l_N` on its own states, and the largest violation (dynamics defect
@@ -65,6 +66,8 @@ class Model:
     terminal: Callable[..., Any]
     u_min: Optional[np.ndarray] = None
     u_max: Optional[np.ndarray] = None
+    #: The initial control guess of every solver (zero where None).
+    u_guess: Optional[np.ndarray] = None
     functions: tuple = field(default=(), repr=False)
 
     def build(self) -> None:
@@ -129,7 +132,12 @@ def quadrotor() -> Model:
         terminal=lambda x, m: 0.5 * sum(qf[i] * (x[i] - goal[i]) ** 2 for i in range(6)),
         u_min=np.zeros(2),
         u_max=np.full(2, 2.0 * QM * QG),
+        u_guess=np.full(2, HOVER),
     )
+
+
+def guess(m: Model) -> np.ndarray:
+    return np.zeros(m.nu) if m.u_guess is None else m.u_guess
 
 
 @dataclass
@@ -153,7 +161,7 @@ def ddpkit_entry(m: Model, traced: bool) -> Entry:
     solver = ddpkit.Solver(problem, method="ddp", max_iterations=500)
 
     def solve() -> tuple[int, np.ndarray, np.ndarray, str]:
-        s = solver.solve(np.zeros((m.n, m.nu)))
+        s = solver.solve(np.tile(guess(m), (m.n, 1)))
         return s.iterations, s.xs, s.us, s.status
 
     return Entry("ddpkit traced (numpy)" if traced else "ddpkit from_casadi", solve)
@@ -182,7 +190,7 @@ def casadi_entry(m: Model, plugin: str) -> Entry:
         for k in range(m.n + 1):
             opti.set_initial(xs_v[k], m.x0)
         for k in range(m.n):
-            opti.set_initial(us_v[k], np.zeros(m.nu))
+            opti.set_initial(us_v[k], guess(m))
         try:
             sol = opti.solve()
             stats, value = sol.stats(), sol.value

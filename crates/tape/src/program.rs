@@ -46,6 +46,10 @@ enum Kind {
     Sub,
     Mul,
     Neg,
+    /// `s[a] + s[d] * s[b]` and `s[a] - s[d] * s[b]` (`s[d]` a constant): `x + dt f` of an
+    /// integrator in one instruction, in values-only runs.
+    AddScaled,
+    SubScaled,
     /// `s[dst] = sin a`, `s[b] = cos a`; partial slots `d = -sin a`, `d + 1 = -cos a`.
     SinCos,
     /// Partial slots `d = phi'`, `d + 1 = phi''`.
@@ -640,7 +644,7 @@ impl Program {
             n_consts: consts.len(),
             s_template,
             n_slots,
-            instrs,
+            instrs: fuse_scaled(instrs, &outputs, |x| const_value(x).is_some()),
             jacobian_instrs,
             hessian_instrs,
             outputs,
@@ -687,6 +691,8 @@ impl Program {
                 Kind::Sub => s[a] - s[b],
                 Kind::Mul => s[a] * s[b],
                 Kind::Neg => -s[a],
+                Kind::AddScaled => s[a] + s[d] * s[b],
+                Kind::SubScaled => s[a] - s[d] * s[b],
                 Kind::SinCos => {
                     let (sn, cs) = s[a].sin_cos();
                     s[b] = cs;
@@ -1005,4 +1011,64 @@ impl TangentCompiler {
         }
         st.mat[v as usize] = Some(entries);
     }
+}
+
+/// The values-only instruction list with `a +- c * b` (`c` a constant) fused into one instruction
+/// where the product has no other use: the same operations in the same order, so the same bits.
+fn fuse_scaled(instrs: Vec<Instr>, outputs: &[u32], is_const: impl Fn(u32) -> bool) -> Vec<Instr> {
+    let mut uses: BTreeMap<u32, usize> = BTreeMap::new();
+    for ins in &instrs {
+        *uses.entry(ins.a).or_default() += 1;
+        if matches!(ins.kind, Kind::Add | Kind::Sub | Kind::Mul | Kind::Binary(_)) {
+            *uses.entry(ins.b).or_default() += 1;
+        }
+    }
+    for &o in outputs {
+        *uses.entry(o).or_default() += 1;
+    }
+    // Products of a variable and a constant: slot -> (variable, constant).
+    let scaled: BTreeMap<u32, (u32, u32)> = instrs
+        .iter()
+        .filter(|i| i.kind == Kind::Mul && uses.get(&i.dst) == Some(&1))
+        .filter_map(|i| match (is_const(i.a), is_const(i.b)) {
+            (true, false) => Some((i.dst, (i.b, i.a))),
+            (false, true) => Some((i.dst, (i.a, i.b))),
+            _ => None,
+        })
+        .collect();
+    let mut fused = std::collections::BTreeSet::new();
+    let mut out: Vec<Instr> = instrs
+        .iter()
+        .map(|&ins| {
+            let pick = match ins.kind {
+                // x + c y (either order) and x - c y.
+                Kind::Add => scaled
+                    .get(&ins.b)
+                    .map(|&p| (ins.a, ins.b, p))
+                    .or_else(|| scaled.get(&ins.a).map(|&p| (ins.b, ins.a, p))),
+                Kind::Sub => scaled.get(&ins.b).map(|&p| (ins.a, ins.b, p)),
+                _ => None,
+            };
+            match pick {
+                Some((x, product, (y, c))) if !fused.contains(&product) => {
+                    fused.insert(product);
+                    let kind = if ins.kind == Kind::Add {
+                        Kind::AddScaled
+                    } else {
+                        Kind::SubScaled
+                    };
+                    Instr {
+                        kind,
+                        a: x,
+                        b: y,
+                        dst: ins.dst,
+                        d: c,
+                    }
+                }
+                _ => ins,
+            }
+        })
+        .collect();
+    out.retain(|i| !(i.kind == Kind::Mul && fused.contains(&i.dst)));
+    out
 }

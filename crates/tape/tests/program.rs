@@ -320,3 +320,27 @@ proptest! {
         prop_assert!(check(&t, &z[..n], lambda, nx, rows).is_ok(), "{:?}", check(&t, &z[..n], lambda, nx, rows));
     }
 }
+
+#[test]
+fn values_of_an_integrator_step_equal_the_interpreter_bit_for_bit() {
+    // x + dt f(x, u) by Euler and RK4: the fused `a + c b` instructions do the same operations in
+    // the same order.
+    let mut b = TapeBuilder::new(3);
+    let (q, w, u) = (b.input(0).unwrap(), b.input(1).unwrap(), b.input(2).unwrap());
+    let s = b.unary(Unary::Sin, q).unwrap();
+    let g = b.constant(9.81).unwrap();
+    let gs = b.binary(Binary::Mul, g, s).unwrap();
+    let acc = b.binary(Binary::Sub, u, gs).unwrap();
+    let ode = b.finish(&[w, acc]).unwrap();
+    for integrator in [ddp_tape::Integrator::Euler, ddp_tape::Integrator::Rk4] {
+        let t = ddp_tape::discretize(&ode, 2, 1, 0.05, integrator).unwrap();
+        let p = Program::new(&t, 3);
+        let (mut ws, mut pws) = (Workspace::default(), ProgramWorkspace::default());
+        for z in [[0.3, -1.2, 0.7], [2.9, 0.4, -1.5]] {
+            let (mut a, mut c) = ([0.0; 2], [0.0; 2]);
+            t.values(&z, &mut ws, &mut a);
+            p.values(&mut pws, &z[..2], &z[2..], &mut c);
+            assert_eq!(a.map(f64::to_bits), c.map(f64::to_bits), "{integrator:?} at {z:?}");
+        }
+    }
+}

@@ -18,8 +18,19 @@ def cartpole_ode(x, u, np=np):
     return [x[2], x[3], pdd, tdd]
 
 
-def save_figure(path: str, xs: np.ndarray, us: np.ndarray, labels: list[str]) -> None:
-    """States and controls against the knot index, written to `path` (skipped without matplotlib)."""
+def save_figure(
+    path: str,
+    xs: np.ndarray,
+    us: np.ndarray,
+    labels: list[str],
+    title: str | None = None,
+    u_labels: list[str] | None = None,
+    u_limits: tuple[float, float] | None = None,
+    dt: float | None = None,
+) -> None:
+    """States and controls against time (or the knot index without `dt`), with axis labels, legends
+    and a title (the file name without `title`), written to `path` (skipped without matplotlib).
+    `u_limits` draws the control bounds."""
     try:
         import matplotlib
 
@@ -28,11 +39,26 @@ def save_figure(path: str, xs: np.ndarray, us: np.ndarray, labels: list[str]) ->
     except ImportError:
         print(f"(matplotlib is not installed: no figure written to {path})", file=sys.stderr)
         return
+    us = np.asarray(us).reshape(len(us), -1)
+    t = np.arange(len(xs)) * (dt if dt else 1.0)
     fig, (a, b) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
     for i, name in enumerate(labels):
-        a.plot(xs[:, i], label=name)
+        a.plot(t, xs[:, i], label=name)
+    a.set_ylabel("state")
     a.legend(loc="best")
-    b.step(range(len(us)), us, where="post")
-    b.set_xlabel("knot")
+    a.grid(alpha=0.3)
+    a.set_title(title or path.rsplit("/", 1)[-1].rsplit(".", 1)[0])
+    names = u_labels or [f"u{j}" for j in range(us.shape[1])]
+    for j in range(us.shape[1]):
+        b.step(t[: len(us)], us[:, j], where="post", label=names[j])
+    if u_limits is not None:
+        for k, lim in enumerate(u_limits):
+            b.axhline(lim, color="gray", linestyle="--", linewidth=1, label="limit" if k == 0 else None)
+    b.set_xlabel("time (s)" if dt else "knot")
+    b.set_ylabel("control")
+    b.legend(loc="best")
+    b.grid(alpha=0.3)
+    fig.tight_layout()
     fig.savefig(path, dpi=120)
+    plt.close(fig)
     print(f"figure: {path}")

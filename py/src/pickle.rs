@@ -94,16 +94,19 @@ impl Table {
     }
 }
 
-/// Rebuilds a pickled `Solution` or `SafeSolution` (`kind`) from its fields.
+/// Rebuilds a pickled `Solution`, `SafeSolution` or `Episode` (`kind`) from its fields.
 #[pyfunction]
 #[pyo3(name = "_unpickle_result")]
 pub fn unpickle_result(py: Python<'_>, kind: &str, state: &Bound<'_, PyDict>) -> PyResult<Py<PyAny>> {
     match kind {
         "Solution" => Ok(Py::new(py, crate::solver::Solution::from_state(state)?)?.into_any()),
         "SafeSolution" => Ok(Py::new(py, crate::safe::SafeSolution::from_state(state)?)?.into_any()),
-        other => {
-            Err(crate::errors::invalid("kind", format!("must be 'Solution' or 'SafeSolution', got '{other}'")).into())
-        }
+        "Episode" => Ok(Py::new(py, crate::safe::Episode::from_state(state)?)?.into_any()),
+        other => Err(crate::errors::invalid(
+            "kind",
+            format!("must be 'Solution', 'SafeSolution' or 'Episode', got '{other}'"),
+        )
+        .into()),
     }
 }
 

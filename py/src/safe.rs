@@ -15,7 +15,7 @@ use std::sync::{Arc, RwLock};
 
 use ddp_core::dims::{Alloc, Const, DefaultAllocator, Dim, Dims, Dyn, VectorN};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::{PyDict, PyList, PyTuple};
 use safe_cddp::constraints::{Circle as CoreCircle, ControlBox as CoreControlBox, ConvexPolygon as CorePolygon};
 use safe_cddp::constraints::{Cylinder as CoreCylinder, StateBox as CoreStateBox};
 use safe_cddp::mpc::{Mpc as CoreMpc, MpcSettings};
@@ -1467,9 +1467,14 @@ where
 /// shortened. An episode ends at the goal region (``goal_radius`` around ``goal`` on
 /// ``goal_indices``) or when the horizon runs out. Collisions are steps whose true state
 /// violates an original (untightened) state constraint. Uses a copy of the problem taken at
-/// construction.
+/// construction. Pickles as its constructor's arguments (the unpickled controller starts afresh;
+/// episodes depend only on the seed, so it runs the same episodes).
 #[pyclass(module = "ddpkit._ddpkit")]
 pub struct Mpc {
+    /// `(problem, constraints, sigma_w, goal)` as validated (constraints as a list, arrays as
+    /// float arrays) and the keyword arguments, for pickling and equality.
+    source: Py<PyTuple>,
+    options: Py<PyDict>,
     inner: AnyMpc,
     nx: usize,
     nu: usize,
@@ -1505,6 +1510,7 @@ impl Mpc {
         position_indices: (i64, i64),
         #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
     ) -> PyResult<Self> {
+        let (sigma_w_in, goal_in) = (sigma_w.clone(), goal.clone());
         let specs = extract_constraints(constraints)?;
         let d = Settings::default();
         let settings = settings_from(
@@ -1545,7 +1551,50 @@ impl Mpc {
         let inner = Problem::read(&p.inner, |q| {
             with_dims!(nx, nu, new_mpc(q, &specs, t, &sigma_w, settings, &args))
         })?;
-        Ok(Self { inner, nx, nu })
+        let py = problem.py();
+        let np = py.import("numpy")?;
+        let constraints = PyList::new(py, constraints.try_iter()?.collect::<PyResult<Vec<_>>>()?)?;
+        let source = PyTuple::new(
+            py,
+            [
+                problem.into_any(),
+                constraints.into_any(),
+                np.call_method1("array", (&sigma_w_in, "float64"))?,
+                np.call_method1("array", (&goal_in, "float64"))?,
+            ],
+        )?
+        .unbind();
+        let options = PyDict::new(py);
+        options.set_item("tightening", tightening)?;
+        options.set_item("goal_indices", goal_indices)?;
+        options.set_item("goal_radius", goal_radius)?;
+        options.set_item("iterations", iterations)?;
+        options.set_item("initial_iterations", initial_iterations)?;
+        options.set_item("position_indices", position_indices)?;
+        options.set_item("max_iterations", max_iterations)?;
+        Ok(Self {
+            source,
+            options: options.unbind(),
+            inner,
+            nx,
+            nu,
+        })
+    }
+
+    /// Pickles as its constructor's arguments.
+    #[allow(clippy::type_complexity)]
+    fn __getnewargs_ex__<'py>(&self, py: Python<'py>) -> (Bound<'py, PyTuple>, Bound<'py, PyDict>) {
+        (self.source.bind(py).clone(), self.options.bind(py).clone())
+    }
+
+    /// Equal when the constructor's arguments are (arrays by value).
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        let Ok(o) = other.cast::<Mpc>() else {
+            return Ok(false);
+        };
+        let o = o.try_borrow()?;
+        Ok(crate::pickle::equal_values(self.source.bind(py), o.source.bind(py))?
+            && crate::pickle::equal_values(self.options.bind(py), o.options.bind(py))?)
     }
 
     /// Runs one episode from the problem's ``x0`` with the noise of ``seed`` (deterministic for
@@ -1598,8 +1647,56 @@ pub struct Episode {
     us: Py<PyAny>,
 }
 
+impl Episode {
+    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("success", self.success)?;
+        d.set_item("steps", self.steps)?;
+        d.set_item("collisions", self.collisions)?;
+        d.set_item("infeasible_steps", self.infeasible_steps)?;
+        d.set_item("xs", self.xs.bind(py))?;
+        d.set_item("us", self.us.bind(py))?;
+        Ok(d)
+    }
+
+    /// Rebuilds a pickled episode from its fields.
+    pub fn from_state(state: &Bound<'_, PyDict>) -> PyResult<Self> {
+        use crate::pickle::field;
+        let array = |key: &str| -> PyResult<Py<PyAny>> {
+            let v: Bound<'_, PyAny> = field(state, key)?;
+            if !v.hasattr("__array_interface__")? {
+                return Err(invalid(format!("state['{key}']"), "must be a numpy array").into());
+            }
+            Ok(v.unbind())
+        };
+        Ok(Self {
+            success: field(state, "success")?,
+            steps: field(state, "steps")?,
+            collisions: field(state, "collisions")?,
+            infeasible_steps: field(state, "infeasible_steps")?,
+            xs: array("xs")?,
+            us: array("us")?,
+        })
+    }
+}
+
 #[pymethods]
 impl Episode {
+    /// Pickles as its fields.
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (&'static str, Bound<'py, PyDict>))> {
+        Ok((
+            crate::pickle::module_attr(py, "_unpickle_result")?,
+            ("Episode", self.state(py)?),
+        ))
+    }
+    /// Equal when every field is (arrays by value).
+    fn __eq__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<bool> {
+        match other.cast::<Episode>() {
+            Ok(o) => crate::pickle::equal_values(self.state(py)?.as_any(), o.get().state(py)?.as_any()),
+            Err(_) => Ok(false),
+        }
+    }
     fn __repr__(&self) -> String {
         format!(
             "Episode(success={}, steps={}, collisions={})",

@@ -191,8 +191,12 @@ def test_traced_cartpole_swings_up_like_the_casadi_model_and_ipopt_agrees() -> N
     traced = ddpkit.Solver(cartpole_problem(traced_cartpole()), method="ddp", max_iterations=300).solve()
     imported = ddpkit.Solver(cartpole_problem(ddpkit.Dynamics.from_casadi(cartpole_casadi())), method="ddp", max_iterations=300).solve()
     assert traced.converged, traced.status
-    assert traced.iterations == imported.iterations
+    # Two different tapes of one function (numpy-traced, CasADi's instruction list) agree to
+    # rounding, not bit for bit (their sums are formed in different orders), so the stopping test
+    # near convergence may fall one iteration apart; the optimum is the same.
+    assert abs(traced.iterations - imported.iterations) <= 1
     assert traced.cost == pytest.approx(imported.cost, rel=1e-10)
+    np.testing.assert_allclose(traced.us, imported.us, atol=1e-3)  # one iteration apart
     assert abs(traced.xs[-1, 1] - np.pi) < 0.1  # swung up
     # iLQR (Gauss-Newton dynamics terms) heads to the same optimum.
     gn = ddpkit.Solver(cartpole_problem(traced_cartpole()), method="ilqr", max_iterations=2000, gradient_tolerance=1e-6).solve()

@@ -202,6 +202,28 @@ def test_safe_solver_and_safe_solution_pickle() -> None:
     assert other != solver
 
 
+def test_mpc_and_episode_pickle_and_run_the_same_episodes() -> None:
+    sigma = 1e-5 * np.eye(3)
+    constraints = [ddpkit.Circle((-0.5, -0.6), 0.2)]
+    kw = dict(goal=[0.0, 0.0, 0.0], goal_radius=0.2, iterations=3, initial_iterations=20, max_iterations=100)
+    mpc = ddpkit.Mpc(p1(), constraints, sigma, tightening=ddpkit.Tightening(0.9, sigma), **kw)
+    again = roundtrip(mpc)
+    e1, e2 = mpc.run_episode(5), again.run_episode(5)
+    assert e1.steps >= 1 and e2.steps == e1.steps
+    np.testing.assert_array_equal(e2.xs, e1.xs)
+    np.testing.assert_array_equal(e2.us, e1.us)
+    assert e2 == e1
+    ep = roundtrip(e1)
+    assert (ep.success, ep.steps, ep.collisions, ep.infeasible_steps) == (e1.success, e1.steps, e1.collisions, e1.infeasible_steps)
+    # Every argument takes part in equality.
+    assert ddpkit.Mpc(p1(), constraints, sigma, **kw) != mpc  # no tightening
+    assert ddpkit.Mpc(p1(), constraints, 2 * sigma, tightening=ddpkit.Tightening(0.9, sigma), **kw) != mpc
+    assert ddpkit.Mpc(p1(), constraints, sigma, tightening=ddpkit.Tightening(0.9, sigma), **{**kw, "iterations": 4}) != mpc
+    assert mpc.run_episode(6) != e1
+    with pytest.raises(ddpkit.InvalidInputError, match=r"state\['us'\] is invalid: missing"):
+        _ddpkit._unpickle_result("Episode", {k: v for k, v in e1.__reduce__()[1][1].items() if k != "us"})
+
+
 def solve_in_worker(payload: bytes) -> bytes:
     problem, settings = pickle.loads(payload)
     return pickle.dumps(ddpkit.Solver(problem, **settings).solve())

@@ -289,7 +289,8 @@ pub fn dataset_manifest(data: &[u8]) -> bool {
 }
 
 /// A saved tape model (dynamics, cost, terminal cost or constraint traced in Python): load it,
-/// then evaluate the tape with first derivatives and the second-order sweep at a fixed point.
+/// then evaluate the tape with first derivatives and the second-order sweep at a fixed point, by
+/// the interpreter and by the compiled program.
 pub fn tape_model(data: &[u8]) -> bool {
     let Ok(text) = std::str::from_utf8(data) else {
         return false;
@@ -306,7 +307,13 @@ pub fn tape_model(data: &[u8]) -> bool {
             tape.second_order(&lambda, &mut ws, |k, g, h| {
                 std::hint::black_box((k, g, h.len()));
             });
-            std::hint::black_box((model.kind(), &out));
+            // The compiled program the models run (compiled again here with every output kept).
+            let prog = ddp_tape::Program::new(tape, tape.n_inputs());
+            let mut pws = ddp_tape::ProgramWorkspace::default();
+            prog.values(&mut pws, &z, &[], &mut out);
+            prog.jacobian(&mut pws, &z, &[]);
+            prog.second_order(&mut pws, &z, &[], &lambda);
+            std::hint::black_box((model.kind(), &out, &pws.hess));
             true
         }
         Err(e) => show(e),

@@ -6,6 +6,11 @@
 //! ```text
 //! cargo run --release -p ddp-tape --example traced_vs_builtin
 //! ```
+//!
+//! `traced_vs_builtin PROBLEM METHOD MODEL REPS` (`unicycle|quadrotor`, `ilqr|ddp`,
+//! `builtin|traced`, a count) runs one case only, `REPS` solves, and prints nothing: for
+//! instruction counts under `valgrind --tool=callgrind`, which are repeatable on a loaded
+//! machine where wall-clock times are not (subtract a `REPS = 0` run for the set-up).
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -78,7 +83,60 @@ where
     );
 }
 
+/// One case, `reps` solves, nothing printed (for instruction counts).
+fn one(args: &[String]) {
+    let reps: usize = args[3].parse().expect("REPS is a count");
+    let settings = Settings {
+        method: match args[1].as_str() {
+            "ilqr" => ddp_core::Method::Ilqr,
+            "ddp" => ddp_core::Method::Ddp,
+            m => panic!("METHOD is ilqr or ddp, got {m}"),
+        },
+        ..Settings::default()
+    };
+    let traced = match args[2].as_str() {
+        "builtin" => false,
+        "traced" => true,
+        m => panic!("MODEL is builtin or traced, got {m}"),
+    };
+    fn run<NX: Dim, NU: Dim>(p: &Problem<NX, NU>, settings: Settings, reps: usize)
+    where
+        nalgebra::DefaultAllocator: ddp_core::dims::Alloc<NX, NU>,
+    {
+        let mut s = Solver::new(p, settings).expect("solver");
+        for _ in 0..reps {
+            s.reset();
+            std::hint::black_box(s.solve(p).expect("solve"));
+        }
+    }
+    match args[0].as_str() {
+        "unicycle" => {
+            let p = reference::p1_unicycle();
+            let p = if traced {
+                with_dynamics(&p, Arc::new(load("unicycle")))
+            } else {
+                p
+            };
+            run(&p, settings, reps)
+        }
+        "quadrotor" => {
+            let p = reference::quadrotor_reach();
+            let p = if traced {
+                with_dynamics(&p, Arc::new(load("quadrotor")))
+            } else {
+                p
+            };
+            run(&p, settings, reps)
+        }
+        m => panic!("PROBLEM is unicycle or quadrotor, got {m}"),
+    }
+}
+
 fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.len() == 4 {
+        return one(&args);
+    }
     let p1 = reference::p1_unicycle();
     let p1_traced = with_dynamics(&p1, Arc::new(load("unicycle")));
     let quad = reference::quadrotor_reach();

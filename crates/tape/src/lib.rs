@@ -35,10 +35,12 @@ pub mod eval;
 pub mod file;
 pub mod models;
 pub mod op;
+pub mod program;
 pub mod tape;
 
 pub use eval::Workspace;
 pub use file::TapeModel;
 pub use models::{TapeConstraint, TapeCost, TapeDynamics, TapeTerminal};
 pub use op::{Binary, Unary};
+pub use program::{Needs, Program, ProgramWorkspace};
 pub use tape::{discretize, Integrator, Node, Tape, TapeBuilder};

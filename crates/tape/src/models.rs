@@ -3,8 +3,11 @@
 //! at every dimension type (`Const<N>` or `Dyn`), with exact first and second derivatives.
 //!
 //! A model is immutable and `Send + Sync` (the tape is shared behind an `Arc`); evaluation
-//! scratch is a per-thread [`Workspace`] that grows once to the largest tape a thread evaluates,
-//! so repeated evaluations allocate nothing and many threads may evaluate one model at once.
+//! scratch is a per-thread [`ProgramWorkspace`] that grows once to the largest tape a thread
+//! evaluates, so repeated evaluations allocate nothing and many threads may evaluate one model at
+//! once. Each model compiles its tape into a [`Program`] when built (see [`crate::program`]) and
+//! resolves where every Jacobian and Hessian entry goes in the solver's matrices then, so an
+//! evaluation only runs flat lists.
 //! Inputs of the wrong length (a bug of the caller; problems check sizes when built) give NaN
 //! outputs, never a panic.
 
@@ -15,31 +18,74 @@ use ddp_core::dims::{check_size, Alloc, DefaultAllocator, Dim, MatrixN, VectorN,
 use ddp_core::{Cost, CostDerivatives, Dynamics, Error, Result, TerminalCost, TerminalDerivatives};
 use safe_cddp::Constraint;
 
-use crate::eval::Workspace;
+use crate::program::{Needs, Program, ProgramWorkspace};
 use crate::tape::Tape;
 
 thread_local! {
-    static WORKSPACE: RefCell<Workspace> = RefCell::new(Workspace::default());
+    static WORKSPACE: RefCell<ProgramWorkspace> = RefCell::new(ProgramWorkspace::default());
 }
 
-/// Runs `f` with this thread's workspace and the inputs `z = (x, u)` packed into it.
-fn with_inputs<R>(x: &[f64], u: Option<&[f64]>, f: impl FnOnce(&[f64], &mut Workspace) -> R) -> R {
-    let run = |ws: &mut Workspace| {
-        let mut z = std::mem::take(&mut ws.z);
-        z.clear();
-        z.extend_from_slice(x);
-        if let Some(u) = u {
-            z.extend_from_slice(u);
-        }
-        let r = f(&z, ws);
-        ws.z = z;
-        r
-    };
+/// Runs `f` with this thread's workspace.
+#[inline]
+fn with_ws<R>(f: impl FnOnce(&mut ProgramWorkspace) -> R) -> R {
     WORKSPACE.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut ws) => run(&mut ws),
+        Ok(mut ws) => f(&mut ws),
         // Only re-entered if a model is evaluated from inside another's evaluation.
-        Err(_) => run(&mut Workspace::default()),
+        Err(_) => f(&mut ProgramWorkspace::default()),
     })
+}
+
+/// Where a lower-triangle Hessian entry `hess[h]` goes: `block` 0, 1, 2 for the `xx`, `ux`,
+/// `uu` blocks (column-major offsets), and the mirrored offset of an off-diagonal entry of a
+/// symmetric block (`u32::MAX` for none).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct HessianSlot {
+    h: u32,
+    block: u8,
+    off: u32,
+    mirror: u32,
+}
+
+/// The destinations of a program's Hessian entries in `(xx, ux, uu)` blocks of a model with
+/// `nx` states and `nu` controls (`ux` is `nu x nx`).
+fn hessian_slots(prog: &Program, nx: usize, nu: usize) -> Vec<HessianSlot> {
+    let mut out = Vec::new();
+    for (h, &(r, c)) in prog.hessian_pattern().iter().enumerate() {
+        let (r, c) = (r as usize, c as usize);
+        let (block, off, mirror) = if r < nx {
+            (0, c * nx + r, (r != c).then_some(r * nx + c))
+        } else if c < nx {
+            (1, c * nu + (r - nx), None)
+        } else {
+            let (r, c) = (r - nx, c - nx);
+            (2, c * nu + r, (r != c).then_some(r * nu + c))
+        };
+        out.push(HessianSlot {
+            h: h as u32,
+            block,
+            off: off as u32,
+            mirror: mirror.map_or(u32::MAX, |m| m as u32),
+        });
+    }
+    out
+}
+
+/// Adds the Hessian entries to the blocks (`hess` from [`Program::second_order`]).
+#[inline]
+fn add_hessian(slots: &[HessianSlot], hess: &[f64], blocks: [&mut [f64]; 3]) {
+    let [xx, ux, uu] = blocks;
+    for s in slots {
+        let v = hess[s.h as usize];
+        let m = match s.block {
+            0 => &mut *xx,
+            1 => &mut *ux,
+            _ => &mut *uu,
+        };
+        m[s.off as usize] += v;
+        if s.mirror != u32::MAX {
+            m[s.mirror as usize] += v;
+        }
+    }
 }
 
 fn check_tape(tape: &Tape, field: &str, inputs: usize, outputs: Option<usize>) -> Result<()> {
@@ -69,17 +115,15 @@ fn check_dims(field: &str, nx: usize, nu: Option<usize>) -> Result<()> {
     Ok(())
 }
 
-/// Adds `row[j]` to `m[(r, j - off)]` for `j` in `cols` (`m` column-major with `rows` rows).
-#[inline]
-fn add_row<R: Dim, C: Dim>(m: &mut MatrixN<R, C>, r: usize, row: &[f64])
-where
-    DefaultAllocator: nalgebra::allocator::Allocator<R, C>,
-{
-    let rows = m.nrows();
-    let s = m.as_mut_slice();
-    for (j, v) in row.iter().enumerate() {
-        s[j * rows + r] += v;
-    }
+/// A tape's program and where its derivative entries go (built with the model).
+#[derive(Debug, Clone, PartialEq)]
+struct Compiled {
+    prog: Program,
+    /// `(dot slot, offset)` of the Jacobian entries in `f_x` and in `f_u` (dynamics; unused
+    /// by costs).
+    jac_x: Vec<(u32, u32)>,
+    jac_u: Vec<(u32, u32)>,
+    hess: Vec<HessianSlot>,
 }
 
 /// Discrete dynamics `x+ = F(x, u)` given by a tape with inputs `(x, u)` and `nx` outputs.
@@ -88,17 +132,43 @@ pub struct TapeDynamics {
     tape: Arc<Tape>,
     nx: usize,
     nu: usize,
+    compiled: Arc<Compiled>,
 }
 
 impl TapeDynamics {
-    /// Checks that `tape` has `nx + nu` inputs and `nx` outputs.
+    /// Checks that `tape` has `nx + nu` inputs and `nx` outputs, and compiles it.
     pub fn new(tape: Tape, nx: usize, nu: usize) -> Result<Self> {
         check_dims("dynamics", nx, Some(nu))?;
         check_tape(&tape, "dynamics", nx + nu, Some(nx))?;
+        // The solver reads Jacobians without values and `V_x`-weighted Hessians without gradients.
+        let prog = Program::with_needs(
+            &tape,
+            Needs {
+                hessian_rows: nx + nu,
+                jacobian_values: false,
+                gradient: false,
+            },
+        );
+        let (mut jac_x, mut jac_u) = (Vec::new(), Vec::new());
+        for &(i, c, slot) in prog.jacobian_entries() {
+            let (i, c) = (i as usize, c as usize);
+            if c < nx {
+                jac_x.push((slot, (c * nx + i) as u32));
+            } else {
+                jac_u.push((slot, ((c - nx) * nx + i) as u32));
+            }
+        }
+        let hess = hessian_slots(&prog, nx, nu);
         Ok(Self {
             tape: Arc::new(tape),
             nx,
             nu,
+            compiled: Arc::new(Compiled {
+                prog,
+                jac_x,
+                jac_u,
+                hess,
+            }),
         })
     }
     /// The tape.
@@ -128,9 +198,8 @@ where
             out.fill(f64::NAN);
             return;
         }
-        with_inputs(x.as_slice(), Some(u.as_slice()), |z, ws| {
-            self.tape.values(z, ws, out.as_mut_slice())
-        });
+        let prog = &self.compiled.prog;
+        with_ws(|ws| prog.values(ws, x.as_slice(), u.as_slice(), out.as_mut_slice()));
     }
     fn sizes(&self) -> (Option<usize>, Option<usize>) {
         (Some(self.nx), Some(self.nu))
@@ -142,20 +211,13 @@ where
             fu.fill(f64::NAN);
             return;
         }
-        with_inputs(x.as_slice(), Some(u.as_slice()), |z, ws| {
-            self.tape.forward(z, ws, true);
-            fx.fill(0.0);
-            fu.fill(0.0);
-            let cols = self.tape.tangent_columns();
-            for (i, &o) in self.tape.outputs().iter().enumerate() {
-                let (s, e) = self.tape.tangent_range(o as usize);
-                for (&c, &v) in cols[s..e].iter().zip(&ws.dot[s..e]) {
-                    let c = c as usize;
-                    if c < nx {
-                        fx[(i, c)] = v;
-                    } else {
-                        fu[(i, c - nx)] = v;
-                    }
+        let c = &*self.compiled;
+        with_ws(|ws| {
+            c.prog.jacobian(ws, x.as_slice(), u.as_slice());
+            for (m, entries) in [(fx.as_mut_slice(), &c.jac_x), (fu.as_mut_slice(), &c.jac_u)] {
+                m.fill(0.0);
+                for &(slot, off) in entries {
+                    m[off as usize] = ws.dot[slot as usize];
                 }
             }
         });
@@ -177,16 +239,11 @@ where
             h_xx.fill(f64::NAN);
             return;
         }
-        with_inputs(x.as_slice(), Some(u.as_slice()), |z, ws| {
-            self.tape.forward(z, ws, true);
-            self.tape.second_order(lambda.as_slice(), ws, |k, _, h| {
-                if k < nx {
-                    add_row(h_xx, k, &h[..nx]);
-                } else {
-                    add_row(h_ux, k - nx, &h[..nx]);
-                    add_row(h_uu, k - nx, &h[nx..]);
-                }
-            });
+        let c = &*self.compiled;
+        with_ws(|ws| {
+            c.prog.second_order(ws, x.as_slice(), u.as_slice(), lambda.as_slice());
+            let blocks = [h_xx.as_mut_slice(), h_ux.as_mut_slice(), h_uu.as_mut_slice()];
+            add_hessian(&c.hess, &ws.hess, blocks);
         });
     }
 }
@@ -197,17 +254,33 @@ pub struct TapeCost {
     tape: Arc<Tape>,
     nx: usize,
     nu: usize,
+    compiled: Arc<Compiled>,
 }
 
 impl TapeCost {
-    /// Checks that `tape` has `nx + nu` inputs and one output.
+    /// Checks that `tape` has `nx + nu` inputs and one output, and compiles it.
     pub fn new(tape: Tape, nx: usize, nu: usize) -> Result<Self> {
         check_dims("cost", nx, Some(nu))?;
         check_tape(&tape, "cost", nx + nu, Some(1))?;
+        let prog = Program::with_needs(
+            &tape,
+            Needs {
+                hessian_rows: nx + nu,
+                jacobian_values: false,
+                gradient: true,
+            },
+        );
+        let hess = hessian_slots(&prog, nx, nu);
         Ok(Self {
             tape: Arc::new(tape),
             nx,
             nu,
+            compiled: Arc::new(Compiled {
+                prog,
+                jac_x: Vec::new(),
+                jac_u: Vec::new(),
+                hess,
+            }),
         })
     }
     /// The tape.
@@ -229,9 +302,8 @@ where
             return f64::NAN;
         }
         let mut v = [0.0];
-        with_inputs(x.as_slice(), Some(u.as_slice()), |z, ws| {
-            self.tape.values(z, ws, &mut v)
-        });
+        let prog = &self.compiled.prog;
+        with_ws(|ws| prog.values(ws, x.as_slice(), u.as_slice(), &mut v));
         v[0]
     }
     fn add_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
@@ -239,20 +311,18 @@ where
         if x.len() != nx || u.len() != self.nu {
             return f64::NAN;
         }
-        with_inputs(x.as_slice(), Some(u.as_slice()), |z, ws| {
-            self.tape.forward(z, ws, true);
-            let v = ws.val[self.tape.outputs()[0] as usize];
-            self.tape.second_order(&[w], ws, |k, g, h| {
-                if k < nx {
-                    d.lx[k] += g;
-                    add_row(&mut d.lxx, k, &h[..nx]);
-                } else {
-                    d.lu[k - nx] += g;
-                    add_row(&mut d.lux, k - nx, &h[..nx]);
-                    add_row(&mut d.luu, k - nx, &h[nx..]);
-                }
-            });
-            w * v
+        let c = &*self.compiled;
+        with_ws(|ws| {
+            c.prog.second_order(ws, x.as_slice(), u.as_slice(), &[w]);
+            for (l, g) in d.lx.iter_mut().zip(&ws.bar[..nx]) {
+                *l += g;
+            }
+            for (l, g) in d.lu.iter_mut().zip(&ws.bar[nx..nx + self.nu]) {
+                *l += g;
+            }
+            let blocks = [d.lxx.as_mut_slice(), d.lux.as_mut_slice(), d.luu.as_mut_slice()];
+            add_hessian(&c.hess, &ws.hess, blocks);
+            w * c.prog.output(ws, 0)
         })
     }
     fn sizes(&self) -> (Option<usize>, Option<usize>) {
@@ -265,16 +335,32 @@ where
 pub struct TapeTerminal {
     tape: Arc<Tape>,
     nx: usize,
+    compiled: Arc<Compiled>,
 }
 
 impl TapeTerminal {
-    /// Checks that `tape` has `nx` inputs and one output.
+    /// Checks that `tape` has `nx` inputs and one output, and compiles it.
     pub fn new(tape: Tape, nx: usize) -> Result<Self> {
         check_dims("terminal_cost", nx, None)?;
         check_tape(&tape, "terminal_cost", nx, Some(1))?;
+        let prog = Program::with_needs(
+            &tape,
+            Needs {
+                hessian_rows: nx,
+                jacobian_values: false,
+                gradient: true,
+            },
+        );
+        let hess = hessian_slots(&prog, nx, 0);
         Ok(Self {
             tape: Arc::new(tape),
             nx,
+            compiled: Arc::new(Compiled {
+                prog,
+                jac_x: Vec::new(),
+                jac_u: Vec::new(),
+                hess,
+            }),
         })
     }
     /// The tape.
@@ -296,21 +382,22 @@ where
             return f64::NAN;
         }
         let mut v = [0.0];
-        with_inputs(x.as_slice(), None, |z, ws| self.tape.values(z, ws, &mut v));
+        let prog = &self.compiled.prog;
+        with_ws(|ws| prog.values(ws, x.as_slice(), &[], &mut v));
         v[0]
     }
     fn add_derivatives(&self, x: &VectorN<NX>, w: f64, d: &mut TerminalDerivatives<NX>) -> f64 {
         if x.len() != self.nx {
             return f64::NAN;
         }
-        with_inputs(x.as_slice(), None, |z, ws| {
-            self.tape.forward(z, ws, true);
-            let v = ws.val[self.tape.outputs()[0] as usize];
-            self.tape.second_order(&[w], ws, |k, g, h| {
-                d.lx[k] += g;
-                add_row(&mut d.lxx, k, h);
-            });
-            w * v
+        let c = &*self.compiled;
+        with_ws(|ws| {
+            c.prog.second_order(ws, x.as_slice(), &[], &[w]);
+            for (l, g) in d.lx.iter_mut().zip(&ws.bar[..self.nx]) {
+                *l += g;
+            }
+            add_hessian(&c.hess, &ws.hess, [d.lxx.as_mut_slice(), &mut [], &mut []]);
+            w * c.prog.output(ws, 0)
         })
     }
     fn state_size(&self) -> Option<usize> {
@@ -328,6 +415,7 @@ pub struct TapeConstraint {
     /// `None` for a tape of `x` alone (usable with any control size).
     nu: Option<usize>,
     uses_control: bool,
+    compiled: Arc<Compiled>,
 }
 
 impl TapeConstraint {
@@ -336,11 +424,27 @@ impl TapeConstraint {
         check_dims("constraint", nx, nu)?;
         check_tape(&tape, "constraint", nx + nu.unwrap_or(0), None)?;
         let uses_control = (nx..tape.n_inputs()).any(|k| tape.uses_input(k));
+        // Constraint Jacobians come with values; only the `xx` block of the curvature is read.
+        let prog = Program::with_needs(
+            &tape,
+            Needs {
+                hessian_rows: nx,
+                jacobian_values: true,
+                gradient: false,
+            },
+        );
+        let hess = hessian_slots(&prog, nx, 0);
         Ok(Self {
             tape: Arc::new(tape),
             nx,
             nu,
             uses_control,
+            compiled: Arc::new(Compiled {
+                prog,
+                jac_x: Vec::new(),
+                jac_u: Vec::new(),
+                hess,
+            }),
         })
     }
     /// The tape.
@@ -354,8 +458,12 @@ impl TapeConstraint {
     fn fits(&self, x: usize, u: usize) -> bool {
         x == self.nx && self.nu.is_none_or(|nu| nu == u)
     }
-    fn control<'a>(&self, u: &'a [f64]) -> Option<&'a [f64]> {
-        self.nu.map(|_| u)
+    fn control<'a>(&self, u: &'a [f64]) -> &'a [f64] {
+        if self.nu.is_some() {
+            u
+        } else {
+            &[]
+        }
     }
 }
 
@@ -374,9 +482,8 @@ where
             g.fill(f64::NAN);
             return;
         }
-        with_inputs(x.as_slice(), self.control(u.as_slice()), |z, ws| {
-            self.tape.values(z, ws, g)
-        });
+        let prog = &self.compiled.prog;
+        with_ws(|ws| prog.values(ws, x.as_slice(), self.control(u.as_slice()), g));
     }
     fn jacobians(
         &self,
@@ -393,21 +500,20 @@ where
             return;
         }
         let nx = self.nx;
-        with_inputs(x.as_slice(), self.control(u.as_slice()), |z, ws| {
-            self.tape.forward(z, ws, true);
-            let cols = self.tape.tangent_columns();
-            for (i, &o) in self.tape.outputs().iter().enumerate() {
-                g[i] = ws.val[o as usize];
+        let prog = &self.compiled.prog;
+        with_ws(|ws| {
+            prog.jacobian(ws, x.as_slice(), self.control(u.as_slice()));
+            for i in 0..m {
+                g[i] = prog.output(ws, i);
                 g_x[i].fill(0.0);
                 g_u[i].fill(0.0);
-                let (s, e) = self.tape.tangent_range(o as usize);
-                for (&c, &v) in cols[s..e].iter().zip(&ws.dot[s..e]) {
-                    let c = c as usize;
-                    if c < nx {
-                        g_x[i][c] = v;
-                    } else if self.nu.is_some() {
-                        g_u[i][c - nx] = v;
-                    }
+            }
+            for &(i, c, slot) in prog.jacobian_entries() {
+                let (i, c, v) = (i as usize, c as usize, ws.dot[slot as usize]);
+                if c < nx {
+                    g_x[i][c] = v;
+                } else {
+                    g_u[i][c - nx] = v;
                 }
             }
         });
@@ -417,14 +523,10 @@ where
             h_xx.fill(f64::NAN);
             return;
         }
-        let nx = self.nx;
-        with_inputs(x.as_slice(), self.control(u.as_slice()), |z, ws| {
-            self.tape.forward(z, ws, true);
-            self.tape.second_order(w, ws, |k, _, h| {
-                if k < nx {
-                    add_row(h_xx, k, &h[..nx]);
-                }
-            });
+        let c = &*self.compiled;
+        with_ws(|ws| {
+            c.prog.second_order(ws, x.as_slice(), self.control(u.as_slice()), w);
+            add_hessian(&c.hess, &ws.hess, [h_xx.as_mut_slice(), &mut [], &mut []]);
         });
     }
     fn check_sizes(&self, nx: usize, nu: usize) -> Result<()> {

@@ -1456,12 +1456,14 @@ class Mpc:
         position_indices: tuple[int, int] = (0, 1),
         max_iterations: int = 400,
     ) -> Self: ...
+    def __getnewargs_ex__(self) -> tuple[tuple[Any, ...], dict[str, Any]]:
+        """Pickles as its constructor's arguments (the unpickled controller runs the same episodes)."""
     def run_episode(self, seed: int) -> Episode:
         """One episode from the problem's ``x0`` with the noise of ``seed`` (deterministic)."""
 
 @final
 class Episode:
-    """One MPC episode."""
+    """One MPC episode (pickles as its fields; ``==`` compares them, arrays by value)."""
 
     @property
     def success(self) -> bool:

@@ -1,0 +1,1074 @@
+//! A [`Tape`] compiled into flat register programs: what the tape-backed models run in a solve.
+//!
+//! [`crate::eval`] interprets a tape node by node and is the reference; this module does the same
+//! arithmetic with the bookkeeping moved to compile time, so that a traced model costs about what
+//! its hand-written counterpart does:
+//!
+//! - **One scalar file `s`.** Inputs, constants, node values and the local partials that are not
+//!   already values live in one array. The partials of `a + b`, `a - b`, `-a` are the constants
+//!   `1` and `-1`, those of `a * b` are the values `b` and `a`, the derivative of `sin a` is the
+//!   value `cos a`: the derivative programs read them where they already are, and only the other
+//!   operations write partial slots.
+//! - **`sin` and `cos` of one argument** are one `sin_cos` instruction (a rigid body's rotation
+//!   uses both; the hand-written models compute them together too).
+//! - **Jacobians by forward tangents as one flat list of multiply-adds**
+//!   `dot[o] = s[p] dot[a] + s[q] dot[b]`, one per non-zero entry of every node's tangent (the
+//!   tangent sparsity and the positions of the arguments' entries are resolved when compiling).
+//!   An entry that only one argument has reads the other term as `0 * 0` from fixed zero slots,
+//!   so the list has no branches and never forms `0 * inf`.
+//! - **Weighted Hessians `sum_i lambda_i d^2F_i/dz^2` from one first-order reverse sweep.** With
+//!   `vbar_i = d(lambda'F)/dv_i` the adjoints and `dv/dz` the tangents, the Hessian of a
+//!   composition is (Griewank and Walther 2008, "Evaluating Derivatives", sec. 4.3, the
+//!   second-order chain rule over the computational graph)
+//!
+//!   ```text
+//!   d^2(lambda'F)/dz^2 = sum over nonlinear nodes i = phi(a, b) of
+//!       vbar_i (phi_aa da da' + phi_ab (da db' + db da') + phi_bb db db')
+//!   ```
+//!
+//!   so full DDP needs values, the scalar adjoints and the tangents of the arguments of the few
+//!   nonlinear nodes only: no `n`-wide adjoint tangents. Every term's position in the Hessian is
+//!   resolved when compiling; only the lower triangle (`row >= col`, in `z = (x, u)` order: the
+//!   `xx`, `ux` and `uu` blocks a solver reads) below a row limit is formed.
+//!
+//! Scratch is a [`ProgramWorkspace`] that grows to the largest program it has run and then
+//! allocates nothing.
+
+use std::collections::BTreeMap;
+
+use crate::op::{powc_partials, powc_value, Binary, Unary};
+use crate::tape::{Node, Tape};
+
+/// What an instruction computes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    Add,
+    Sub,
+    Mul,
+    Neg,
+    /// `s[a] + s[d] * s[b]` and `s[a] - s[d] * s[b]` (`s[d]` a constant): `x + dt f` of an
+    /// integrator in one instruction, in values-only runs.
+    AddScaled,
+    SubScaled,
+    /// `s[dst] = sin a`, `s[b] = cos a`; partial slots `d = -sin a`, `d + 1 = -cos a`.
+    SinCos,
+    /// Partial slots `d = phi'`, `d + 1 = phi''`.
+    Unary(Unary),
+    /// Partial slots `d = a^p'`, `d + 1 = a^p''`.
+    Powc(f64),
+    /// Partial slots `d .. d + 5`: `phi_a, phi_b, phi_aa, phi_ab, phi_bb`.
+    Binary(Binary),
+}
+
+/// One instruction: `s[dst] = kind(s[a], s[b])`, partials from `d` on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Instr {
+    kind: Kind,
+    a: u32,
+    b: u32,
+    dst: u32,
+    d: u32,
+}
+
+/// `dot[out] = s[p] * dot[a] + s[q] * dot[b]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Fma {
+    out: u32,
+    p: u32,
+    a: u32,
+    q: u32,
+    b: u32,
+}
+
+/// `bar[arg] += s[p] * bar[r]` (the reverse sweep, in reverse order).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Adjoint {
+    r: u32,
+    arg: u32,
+    p: u32,
+}
+
+/// The curvature of one nonlinear node in one pair of arguments: `c = bar[r] * s[k]`, then
+/// `hess[h] += c * dot[u] * dot[w]` for its terms.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Curvature {
+    r: u32,
+    k: u32,
+    terms: (u32, u32),
+}
+
+/// Slots of the fixed constants in `s`, right after the inputs.
+const ZERO: u32 = 0;
+const ONE: u32 = 1;
+const MINUS_ONE: u32 = 2;
+/// The zero slot of `dot`.
+const DOT_ZERO: u32 = 0;
+/// The slot of `dot` holding 1 (every input's tangent entry).
+const DOT_ONE: u32 = 1;
+/// While compiling: "no partial" (then read as the constant zero).
+const NONE: u32 = u32::MAX;
+/// While compiling: tag of a tangent entry computed at run time (they are placed after the
+/// constant entries when the program is finished).
+const RUNTIME: u32 = 1 << 31;
+/// Largest number of terms a linear combination of tangents keeps symbolic; a longer one is
+/// materialised (bounds the work of materialising it).
+const MAX_TERMS: usize = 8;
+
+static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+/// Identifies a compiled program, so that a workspace loads its constants once for a run of
+/// evaluations of one model (every knot of a solve) rather than at every call. Equal for
+/// comparison: two compilations of one tape are equal programs.
+#[derive(Debug, Clone, Copy)]
+struct ProgramId(u64);
+
+impl PartialEq for ProgramId {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+/// A tape compiled for evaluation (see the module docs). Immutable and `Send + Sync`; built once
+/// per model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Program {
+    id: ProgramId,
+    n_inputs: usize,
+    /// The constants `0, 1, -1` and the tape's, at `s[n_inputs..n_inputs + n_consts]`.
+    n_consts: usize,
+    /// Values and partials end at `n_slots`; the constant coefficients of tangent combinations
+    /// follow.
+    n_slots: usize,
+    /// `s` with the constants and coefficients in place (the rest is written by every run).
+    s_template: Vec<f64>,
+    instrs: Vec<Instr>,
+    /// The instructions [`Program::jacobian`] and [`Program::second_order`] run: those whose
+    /// values or partials their sweeps read.
+    jacobian_instrs: Vec<Instr>,
+    hessian_instrs: Vec<Instr>,
+    outputs: Vec<u32>,
+    /// The constant tangent entries (`0`, `1`, and the entries of linear combinations of the
+    /// inputs); run-time entries follow, up to `n_dot`.
+    dot_template: Vec<f64>,
+    n_dot: usize,
+    /// Every node's tangent.
+    jacobian: Vec<Fma>,
+    /// `(output, input, dot slot)` for every structurally non-zero Jacobian entry.
+    jacobian_entries: Vec<(u32, u32, u32)>,
+    /// The tangents the curvature terms read, and what they depend on.
+    hess_tangents: Vec<Fma>,
+    adjoints: Vec<Adjoint>,
+    /// Slots whose adjoint the reverse sweep accumulates (cleared before it).
+    bar_slots: Vec<u32>,
+    curvature: Vec<Curvature>,
+    /// `(h, u, w)`: `hess[h] += c * dot[u] * dot[w]`.
+    terms: Vec<(u32, u32, u32)>,
+    /// `(row, col)` of `hess[h]`, `row >= col`, sorted.
+    pattern: Vec<(u32, u32)>,
+}
+
+/// What a model reads from a [`Program`]'s runs; what it does not read is not computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Needs {
+    /// Hessian entries `(row, col)` kept: `row >= col` and `row < hessian_rows`.
+    pub hessian_rows: usize,
+    /// Whether [`Program::jacobian`] also computes the outputs' values.
+    pub jacobian_values: bool,
+    /// Whether [`Program::second_order`] computes the gradient and the outputs' values (a cost
+    /// reads both; dynamics and constraints only the Hessian).
+    pub gradient: bool,
+}
+
+/// Scratch of [`Program`] runs.
+#[derive(Debug, Clone, Default)]
+pub struct ProgramWorkspace {
+    /// Inputs, constants, values and partial slots.
+    pub s: Vec<f64>,
+    /// Tangent entries.
+    pub dot: Vec<f64>,
+    /// Adjoints, one per slot of `s` (the inputs' are the gradient after
+    /// [`Program::second_order`]).
+    pub bar: Vec<f64>,
+    /// The lower-triangle Hessian entries at [`Program::hessian_pattern`].
+    pub hess: Vec<f64>,
+    /// The program whose constants are loaded (0: none).
+    loaded: u64,
+}
+
+/// `dst.copy_from_slice(src)` (equal lengths), inlined for the small sizes of robot states and
+/// controls: a `memcpy` call costs more than the copy.
+#[inline]
+fn copy_small(dst: &mut [f64], src: &[f64]) {
+    macro_rules! fixed {
+        ($($k:literal)*) => {
+            match src.len() {
+                $($k => dst[..$k].copy_from_slice(&src[..$k]),)*
+                _ => dst.copy_from_slice(src),
+            }
+        };
+    }
+    fixed!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16)
+}
+
+fn grow(v: &mut Vec<f64>, n: usize) {
+    if v.len() < n {
+        v.resize(n, 0.0);
+    }
+}
+
+/// Which second partials of an operation can be non-zero: `(aa, ab, bb)`.
+fn curvature_kinds(node: &Node) -> (bool, bool, bool) {
+    match *node {
+        Node::Unary(op, _) => {
+            let linear = matches!(
+                op,
+                Unary::Neg | Unary::Abs | Unary::Sign | Unary::Floor | Unary::Ceil | Unary::Not
+            );
+            (!linear, false, false)
+        }
+        Node::Powc(_, p) => (p != 0.0 && p != 1.0, false, false),
+        Node::Binary(op, _, _) => match op {
+            Binary::Mul => (false, true, false),
+            Binary::Div => (false, true, true),
+            Binary::Pow | Binary::Atan2 | Binary::Hypot => (true, true, true),
+            _ => (false, false, false),
+        },
+        Node::Input(_) | Node::Const(_) => (false, false, false),
+    }
+}
+
+impl Program {
+    /// Compiles `tape`, forming Hessian entries `(row, col)` with `row >= col` and
+    /// `row < hessian_rows` (the inputs' count for everything; the state size where only the
+    /// `xx` block is read). Allocates the program; running it allocates nothing once the
+    /// workspace has grown.
+    pub fn new(tape: &Tape, hessian_rows: usize) -> Self {
+        Self::with_needs(
+            tape,
+            Needs {
+                hessian_rows,
+                jacobian_values: true,
+                gradient: true,
+            },
+        )
+    }
+
+    /// Compiles `tape` for a model that reads what `needs` says (the rest is not computed).
+    pub fn with_needs(tape: &Tape, needs: Needs) -> Self {
+        let hessian_rows = needs.hessian_rows;
+        let n = tape.n_inputs();
+        let nodes = tape.nodes();
+        let mut consts = vec![0.0, 1.0, -1.0];
+        // Slot of every node's value.
+        let mut slot = vec![u32::MAX; nodes.len()];
+        for (i, node) in nodes.iter().enumerate() {
+            match *node {
+                Node::Input(k) => slot[i] = k,
+                Node::Const(v) => {
+                    slot[i] = (n + consts.len()) as u32;
+                    consts.push(v);
+                }
+                _ => {}
+            }
+        }
+        // sin and cos of one argument, for fusion.
+        let mut sin_of = BTreeMap::new();
+        let mut cos_of = BTreeMap::new();
+        for (i, node) in nodes.iter().enumerate() {
+            match *node {
+                Node::Unary(Unary::Sin, a) => {
+                    sin_of.insert(a, i);
+                }
+                Node::Unary(Unary::Cos, a) => {
+                    cos_of.insert(a, i);
+                }
+                _ => {}
+            }
+        }
+        let mut next = (n + consts.len()) as u32;
+        // Value slots of the operations in node order; then partial slots after them.
+        let mut order: Vec<usize> = Vec::new(); // nodes owning an instruction
+        for (i, node) in nodes.iter().enumerate() {
+            if matches!(node, Node::Input(_) | Node::Const(_)) || slot[i] != u32::MAX {
+                continue;
+            }
+            let pair = match *node {
+                Node::Unary(Unary::Sin | Unary::Cos, a) => sin_of.get(&a).zip(cos_of.get(&a)),
+                _ => None,
+            };
+            if let Some((&si, &ci)) = pair {
+                slot[si] = next;
+                slot[ci] = next + 1;
+                next += 2;
+            } else {
+                slot[i] = next;
+                next += 1;
+            }
+            order.push(i);
+        }
+        let mut instrs = Vec::with_capacity(order.len());
+        let mut widths: Vec<u32> = Vec::with_capacity(order.len());
+        // Where each value slot's partials are: (d/da, d/db) slot and the second-partial slots
+        // (aa, ab, bb), by value slot.
+        let n_values = next as usize;
+        let mut first: Vec<(u32, u32)> = vec![(NONE, NONE); n_values];
+        let mut second: Vec<(u32, u32, u32)> = vec![(NONE, NONE, NONE); n_values];
+        let mut args: Vec<(Option<u32>, Option<u32>)> = vec![(None, None); n_values];
+        let off = |k: u32| n as u32 + k;
+        for &i in &order {
+            let node = nodes[i];
+            let (a, b) = node.args();
+            let (a, b) = (a.map(|x| slot[x as usize]), b.map(|x| slot[x as usize]));
+            let dst = slot[i];
+            let d = next;
+            let (kind, width) = match node {
+                Node::Unary(Unary::Sin | Unary::Cos, x) if sin_of.contains_key(&x) && cos_of.contains_key(&x) => {
+                    let (s, c) = (slot[sin_of[&x]], slot[cos_of[&x]]);
+                    // d sin = cos (a value), d cos = -sin (slot d); sin'' = -sin, cos'' = -cos.
+                    first[s as usize] = (c, NONE);
+                    first[c as usize] = (d, NONE);
+                    second[s as usize] = (d, NONE, NONE);
+                    second[c as usize] = (d + 1, NONE, NONE);
+                    args[s as usize] = (a, None);
+                    args[c as usize] = (a, None);
+                    widths.push(2);
+                    instrs.push(Instr {
+                        kind: Kind::SinCos,
+                        a: a.unwrap_or(0),
+                        b: c,
+                        dst: s,
+                        d,
+                    });
+                    next += 2;
+                    continue;
+                }
+                Node::Unary(Unary::Neg, _) => {
+                    first[dst as usize] = (off(MINUS_ONE), NONE);
+                    (Kind::Neg, 0)
+                }
+                Node::Unary(op, _) => {
+                    first[dst as usize] = (d, NONE);
+                    second[dst as usize] = (d + 1, NONE, NONE);
+                    (Kind::Unary(op), 2)
+                }
+                Node::Powc(_, p) => {
+                    first[dst as usize] = (d, NONE);
+                    second[dst as usize] = (d + 1, NONE, NONE);
+                    (Kind::Powc(p), 2)
+                }
+                Node::Binary(Binary::Add, ..) => {
+                    first[dst as usize] = (off(ONE), off(ONE));
+                    (Kind::Add, 0)
+                }
+                Node::Binary(Binary::Sub, ..) => {
+                    first[dst as usize] = (off(ONE), off(MINUS_ONE));
+                    (Kind::Sub, 0)
+                }
+                Node::Binary(Binary::Mul, ..) => {
+                    let (sa, sb) = (a.unwrap_or(0), b.unwrap_or(0));
+                    first[dst as usize] = (sb, sa);
+                    second[dst as usize] = (NONE, off(ONE), NONE);
+                    (Kind::Mul, 0)
+                }
+                Node::Binary(op, ..) => {
+                    first[dst as usize] = (d, d + 1);
+                    second[dst as usize] = (d + 2, d + 3, d + 4);
+                    (Kind::Binary(op), 5)
+                }
+                Node::Input(_) | Node::Const(_) => unreachable!("only operations own instructions"),
+            };
+            args[dst as usize] = (a, b);
+            widths.push(width);
+            instrs.push(Instr {
+                kind,
+                a: a.unwrap_or(0),
+                b: b.unwrap_or(0),
+                dst,
+                d,
+            });
+            next += width;
+        }
+        let fix = |x: u32| if x == NONE { off(ZERO) } else { x };
+        for f in first.iter_mut() {
+            *f = (fix(f.0), fix(f.1));
+        }
+        let n_slots = next as usize;
+
+        // Tangent sparsity by value slot: inputs, constants (none), operations (the tape's).
+        let inputs: Vec<Vec<u32>> = (0..n as u32).map(|k| vec![k]).collect();
+        let mut cols: Vec<&[u32]> = vec![&[]; n_values];
+        let tc = tape.tangent_columns();
+        for (i, node) in nodes.iter().enumerate() {
+            let (s, e) = tape.tangent_range(i);
+            if !matches!(node, Node::Const(_)) {
+                cols[slot[i] as usize] = &tc[s..e];
+            }
+        }
+        for k in 0..n {
+            cols[k] = &inputs[k];
+        }
+        // Linear operations with constant coefficients: `(arg, coefficient)` pairs.
+        let const_value = |x: u32| {
+            let k = x as usize;
+            (k >= n && k < n + consts.len()).then(|| consts[k - n])
+        };
+        let mut linear: Vec<Option<Vec<(u32, f64)>>> = vec![None; n_values];
+        for ins in &instrs {
+            let (a, b, v) = (ins.a, ins.b, ins.dst as usize);
+            linear[v] = match ins.kind {
+                Kind::Add => Some(vec![(a, 1.0), (b, 1.0)]),
+                Kind::Sub => Some(vec![(a, 1.0), (b, -1.0)]),
+                Kind::Neg => Some(vec![(a, -1.0)]),
+                Kind::Mul => match (const_value(a), const_value(b)) {
+                    (Some(c), None) => Some(vec![(b, c)]),
+                    (None, Some(c)) => Some(vec![(a, c)]),
+                    _ => None,
+                },
+                Kind::Binary(Binary::Div) => const_value(b).map(|c| vec![(a, 1.0 / c)]),
+                _ => None,
+            };
+            // Constant arguments carry no tangent.
+            if let Some(l) = &mut linear[v] {
+                l.retain(|&(x, _)| const_value(x).is_none());
+            }
+        }
+        let mut tc = TangentCompiler {
+            n_values,
+            coef_base: n_slots as u32,
+            coefs: Vec::new(),
+            coef_of: BTreeMap::new(),
+            template: vec![0.0, 1.0],
+            records: Vec::new(),
+            n_runtime: 0,
+        };
+        let op_slots = n + consts.len()..n_values;
+        let ctx = Ctx {
+            n,
+            zero: off(ZERO),
+            cols: &cols,
+            first: &first,
+            args: &args,
+            linear: &linear,
+        };
+        let all: Vec<bool> = vec![true; n_values];
+        let outputs: Vec<u32> = tape.outputs().iter().map(|&o| slot[o as usize]).collect();
+        let jac_state = tc.compile(&ctx, &all, &outputs);
+        let jacobian = std::mem::take(&mut tc.records);
+        let mut jacobian_entries = Vec::new();
+        for (i, &v) in outputs.iter().enumerate() {
+            for (j, &c) in cols[v as usize].iter().enumerate() {
+                jacobian_entries.push((
+                    i as u32,
+                    c,
+                    jac_state.mat[v as usize].as_ref().map_or(DOT_ZERO, |m| m[j]),
+                ));
+            }
+        }
+        let jac_runtime = tc.n_runtime;
+        tc.n_runtime = 0;
+
+        // Curvature terms: for every nonlinear node, the pairs of argument tangent entries in
+        // the kept part of the Hessian, as (row, col, node u, entry p, node w, entry q).
+        let has_tangent = |x: Option<u32>| x.is_some_and(|x| !cols[x as usize].is_empty());
+        type Raw = (u32, u32, Vec<(u32, u32, u32, u32, u32, u32)>);
+        let mut raw: Vec<Raw> = Vec::new();
+        let mut curved = vec![false; n_values];
+        for (i, node) in nodes.iter().enumerate() {
+            let (aa, ab, bb) = curvature_kinds(node);
+            let v = slot[i] as usize;
+            if v >= n_values || !(aa || ab || bb) {
+                continue;
+            }
+            let (a, b) = args[v];
+            let (kaa, kab, kbb) = second[v];
+            let mut kinds = Vec::new();
+            if aa && has_tangent(a) {
+                kinds.push((fix(kaa), vec![(a, a)]));
+            }
+            if ab && has_tangent(a) && has_tangent(b) {
+                kinds.push((fix(kab), vec![(a, b), (b, a)]));
+            }
+            if bb && has_tangent(b) {
+                kinds.push((fix(kbb), vec![(b, b)]));
+            }
+            for (k, pairs) in kinds {
+                let mut t = Vec::new();
+                for (u, w) in pairs {
+                    let (u, w) = (u.unwrap_or(0), w.unwrap_or(0));
+                    for (p, &cu) in cols[u as usize].iter().enumerate() {
+                        for (q, &cw) in cols[w as usize].iter().enumerate() {
+                            if cu >= cw && (cu as usize) < hessian_rows {
+                                t.push((cu, cw, u, p as u32, w, q as u32));
+                            }
+                        }
+                    }
+                }
+                if !t.is_empty() {
+                    curved[v] = true;
+                    raw.push((v as u32, k, t));
+                }
+            }
+        }
+        // Tangents the curvature terms read, and what they depend on.
+        let mut relevant = vec![false; n_values];
+        let mut required = Vec::new();
+        for (r, _, _) in &raw {
+            let (a, b) = args[*r as usize];
+            for x in [a, b].into_iter().flatten() {
+                relevant[x as usize] = true;
+                required.push(x);
+            }
+        }
+        for v in op_slots.clone().rev() {
+            if relevant[v] {
+                let (a, b) = args[v];
+                for x in [a, b].into_iter().flatten() {
+                    relevant[x as usize] = true;
+                }
+            }
+        }
+        required.sort_unstable();
+        required.dedup();
+        let hess_state = tc.compile(&ctx, &relevant, &required);
+        let hess_tangents = std::mem::take(&mut tc.records);
+        let hess_runtime = tc.n_runtime;
+        let entry = |v: u32, j: u32| hess_state.mat[v as usize].as_ref().map_or(DOT_ZERO, |m| m[j as usize]);
+
+        let mut pattern: Vec<(u32, u32)> = raw
+            .iter()
+            .flat_map(|(_, _, t)| t.iter().map(|&(r, c, ..)| (r, c)))
+            .collect();
+        pattern.sort_unstable();
+        pattern.dedup();
+        let mut curvature = Vec::with_capacity(raw.len());
+        let mut terms = Vec::new();
+        for (r, k, t) in raw {
+            let start = terms.len() as u32;
+            for (row, col, u, p, w, q) in t {
+                let h = pattern.binary_search(&(row, col)).unwrap_or(0) as u32;
+                terms.push((h, entry(u, p), entry(w, q)));
+            }
+            curvature.push(Curvature {
+                r,
+                k,
+                terms: (start, terms.len() as u32),
+            });
+        }
+        // Adjoints are needed at curved nodes, at the inputs (the gradient) and on every path
+        // between them.
+        let mut need_bar = vec![false; n_values];
+        for k in 0..n {
+            need_bar[k] = needs.gradient;
+        }
+        for v in op_slots.clone() {
+            let (a, b) = args[v];
+            need_bar[v] = curved[v] || [a, b].into_iter().flatten().any(|x| need_bar[x as usize]);
+        }
+        let mut adjoints = Vec::new();
+        for v in op_slots.clone().rev() {
+            if !need_bar[v] {
+                continue;
+            }
+            let (a, b) = args[v];
+            let (pa, pb) = first[v];
+            for (x, p) in [(a, pa), (b, pb)] {
+                if let Some(x) = x {
+                    if need_bar[x as usize] {
+                        adjoints.push(Adjoint { r: v as u32, arg: x, p });
+                    }
+                }
+            }
+        }
+        let bar_slots = (0..n_values as u32).filter(|&v| need_bar[v as usize]).collect();
+        // Runtime tangent entries follow the template.
+        let base = tc.template.len() as u32;
+        let fix_dot = |x: u32| if x & RUNTIME != 0 { base + (x & !RUNTIME) } else { x };
+        let fix_fma = |f: &Fma| Fma {
+            out: fix_dot(f.out),
+            p: f.p,
+            a: fix_dot(f.a),
+            q: f.q,
+            b: fix_dot(f.b),
+        };
+        let jacobian: Vec<Fma> = jacobian.iter().map(fix_fma).collect();
+        let hess_tangents: Vec<Fma> = hess_tangents.iter().map(fix_fma).collect();
+        for e in &mut jacobian_entries {
+            e.2 = fix_dot(e.2);
+        }
+        for t in &mut terms {
+            *t = (t.0, fix_dot(t.1), fix_dot(t.2));
+        }
+        // The instructions each sweep needs: owners of the slots it reads, and their arguments.
+        let mut owner = vec![u32::MAX; n_slots];
+        for (i, ins) in instrs.iter().enumerate() {
+            owner[ins.dst as usize] = i as u32;
+            if ins.kind == Kind::SinCos {
+                owner[ins.b as usize] = i as u32;
+            }
+            for k in ins.d..ins.d + widths[i] {
+                owner[k as usize] = i as u32;
+            }
+        }
+        let needed = |reads: Vec<u32>| -> Vec<Instr> {
+            let mut mark = vec![false; instrs.len()];
+            let mut stack = reads;
+            while let Some(x) = stack.pop() {
+                let Some(&i) = owner.get(x as usize) else { continue };
+                if i == u32::MAX || mark[i as usize] {
+                    continue;
+                }
+                mark[i as usize] = true;
+                let ins = &instrs[i as usize];
+                stack.push(ins.a);
+                if matches!(ins.kind, Kind::Add | Kind::Sub | Kind::Mul | Kind::Binary(_)) {
+                    stack.push(ins.b);
+                }
+            }
+            instrs.iter().zip(&mark).filter(|(_, m)| **m).map(|(i, _)| *i).collect()
+        };
+        let out_reads = |on: bool| if on { outputs.clone() } else { Vec::new() };
+        let mut reads = out_reads(needs.jacobian_values);
+        reads.extend(jacobian.iter().flat_map(|f: &Fma| [f.p, f.q]));
+        let jacobian_instrs = needed(reads);
+        let mut reads = out_reads(needs.gradient);
+        reads.extend(hess_tangents.iter().flat_map(|f: &Fma| [f.p, f.q]));
+        reads.extend(adjoints.iter().map(|a| a.p));
+        reads.extend(curvature.iter().map(|c| c.k));
+        let hessian_instrs = needed(reads);
+        let mut s_template = vec![0.0; n_slots + tc.coefs.len()];
+        s_template[n..n + consts.len()].copy_from_slice(&consts);
+        s_template[n_slots..].copy_from_slice(&tc.coefs);
+        Program {
+            id: ProgramId(NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed)),
+            n_inputs: n,
+            n_consts: consts.len(),
+            s_template,
+            n_slots,
+            instrs: fuse_scaled(instrs, &outputs, |x| const_value(x).is_some()),
+            jacobian_instrs,
+            hessian_instrs,
+            outputs,
+            dot_template: tc.template,
+            n_dot: (base + jac_runtime.max(hess_runtime)) as usize,
+            jacobian,
+            jacobian_entries,
+            hess_tangents,
+            adjoints,
+            bar_slots,
+            curvature,
+            terms,
+            pattern,
+        }
+    }
+
+    /// Number of inputs.
+    pub fn n_inputs(&self) -> usize {
+        self.n_inputs
+    }
+
+    /// Loads `z = (x, u)` (`x.len() + u.len() == n_inputs`) and the constants, then runs the
+    /// instructions: values, with the first partials (`ORDER >= 1`) and second partials
+    /// (`ORDER == 2`).
+    fn run<const ORDER: u8>(&self, instrs: &[Instr], ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
+        let n = self.n_inputs;
+        if ws.loaded != self.id.0 {
+            // Constants, coefficients and constant tangent entries: nothing else writes there.
+            let t = &self.s_template;
+            grow(&mut ws.s, t.len());
+            ws.s[n..n + self.n_consts].copy_from_slice(&t[n..n + self.n_consts]);
+            ws.s[self.n_slots..t.len()].copy_from_slice(&t[self.n_slots..]);
+            grow(&mut ws.dot, self.n_dot);
+            ws.dot[..self.dot_template.len()].copy_from_slice(&self.dot_template);
+            ws.loaded = self.id.0;
+        }
+        let s = &mut ws.s[..self.s_template.len()];
+        copy_small(&mut s[..x.len()], x);
+        copy_small(&mut s[x.len()..n], u);
+        for ins in instrs {
+            let (a, b, d) = (ins.a as usize, ins.b as usize, ins.d as usize);
+            let v = match ins.kind {
+                Kind::Add => s[a] + s[b],
+                Kind::Sub => s[a] - s[b],
+                Kind::Mul => s[a] * s[b],
+                Kind::Neg => -s[a],
+                Kind::AddScaled => s[a] + s[d] * s[b],
+                Kind::SubScaled => s[a] - s[d] * s[b],
+                Kind::SinCos => {
+                    let (sn, cs) = s[a].sin_cos();
+                    s[b] = cs;
+                    if ORDER >= 1 {
+                        s[d] = -sn;
+                    }
+                    if ORDER == 2 {
+                        s[d + 1] = -cs;
+                    }
+                    sn
+                }
+                Kind::Unary(op) => {
+                    if ORDER == 0 {
+                        op.value(s[a])
+                    } else {
+                        let (v, p, pp) = op.partials(s[a]);
+                        s[d] = p;
+                        if ORDER == 2 {
+                            s[d + 1] = pp;
+                        }
+                        v
+                    }
+                }
+                Kind::Powc(p) => {
+                    if ORDER == 0 {
+                        powc_value(s[a], p)
+                    } else {
+                        let (v, dp, dpp) = powc_partials(s[a], p);
+                        s[d] = dp;
+                        if ORDER == 2 {
+                            s[d + 1] = dpp;
+                        }
+                        v
+                    }
+                }
+                Kind::Binary(op) => {
+                    if ORDER == 0 {
+                        op.value(s[a], s[b])
+                    } else {
+                        let p = op.partials(s[a], s[b]);
+                        s[d] = p.a;
+                        s[d + 1] = p.b;
+                        if ORDER == 2 {
+                            s[d + 2] = p.aa;
+                            s[d + 3] = p.ab;
+                            s[d + 4] = p.bb;
+                        }
+                        p.v
+                    }
+                }
+            };
+            s[ins.dst as usize] = v;
+        }
+    }
+
+    fn tangents(&self, ws: &mut ProgramWorkspace, list: &[Fma]) {
+        let (s, dot) = (&ws.s, &mut ws.dot[..self.n_dot]);
+        for f in list {
+            dot[f.out as usize] = s[f.p as usize] * dot[f.a as usize] + s[f.q as usize] * dot[f.b as usize];
+        }
+    }
+
+    /// The value of output `i` after a run.
+    #[inline]
+    pub fn output(&self, ws: &ProgramWorkspace, i: usize) -> f64 {
+        ws.s[self.outputs[i] as usize]
+    }
+
+    /// Writes the outputs at `z = (x, u)` to `out`.
+    pub fn values(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64], out: &mut [f64]) {
+        self.run::<0>(&self.instrs, ws, x, u);
+        for (o, &v) in out.iter_mut().zip(&self.outputs) {
+            *o = ws.s[v as usize];
+        }
+    }
+
+    /// The Jacobian at `z = (x, u)`: afterwards `ws.dot[slot]` is the entry of every
+    /// [`Program::jacobian_entries`] item, and [`Program::output`] gives the values where
+    /// [`Needs::jacobian_values`].
+    pub fn jacobian(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
+        self.run::<1>(&self.jacobian_instrs, ws, x, u);
+        self.tangents(ws, &self.jacobian);
+    }
+
+    /// `(output, input, dot slot)` of every structurally non-zero Jacobian entry.
+    pub fn jacobian_entries(&self) -> &[(u32, u32, u32)] {
+        &self.jacobian_entries
+    }
+
+    /// The weighted second derivatives at `z = (x, u)`: afterwards `ws.hess[h]` is the Hessian
+    /// entry of `lambda'F` at [`Program::hessian_pattern`]`[h]`; where [`Needs::gradient`],
+    /// `ws.bar[k]` (`k < n_inputs`) is its gradient and [`Program::output`] gives the values.
+    pub fn second_order(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64], lambda: &[f64]) {
+        self.run::<2>(&self.hessian_instrs, ws, x, u);
+        self.tangents(ws, &self.hess_tangents);
+        grow(&mut ws.bar, self.n_slots);
+        let (s, dot, bar) = (&ws.s, &ws.dot, &mut ws.bar);
+        for &v in &self.bar_slots {
+            bar[v as usize] = 0.0;
+        }
+        for (&o, &l) in self.outputs.iter().zip(lambda) {
+            bar[o as usize] += l;
+        }
+        for a in &self.adjoints {
+            let b = bar[a.r as usize];
+            // A zero adjoint adds nothing (never `0 * inf` from a partial).
+            if b != 0.0 {
+                bar[a.arg as usize] += s[a.p as usize] * b;
+            }
+        }
+        grow(&mut ws.hess, self.pattern.len());
+        let hess = &mut ws.hess[..self.pattern.len()];
+        hess.fill(0.0);
+        for c in &self.curvature {
+            // A node without adjoint, or without curvature here, adds nothing (never
+            // `0 * inf`).
+            let (b, k) = (bar[c.r as usize], s[c.k as usize]);
+            if b == 0.0 || k == 0.0 {
+                continue;
+            }
+            let coef = b * k;
+            for &(h, u, w) in &self.terms[c.terms.0 as usize..c.terms.1 as usize] {
+                hess[h as usize] += coef * dot[u as usize] * dot[w as usize];
+            }
+        }
+    }
+
+    /// `(row, col)` of every Hessian entry [`Program::second_order`] forms (`row >= col`).
+    pub fn hessian_pattern(&self) -> &[(u32, u32)] {
+        &self.pattern
+    }
+}
+
+/// What the tangent compiler reads about the values.
+struct Ctx<'a> {
+    n: usize,
+    /// The slot of the constant 0 in `s`.
+    zero: u32,
+    cols: &'a [&'a [u32]],
+    first: &'a [(u32, u32)],
+    args: &'a [(Option<u32>, Option<u32>)],
+    linear: &'a [Option<Vec<(u32, f64)>>],
+}
+
+/// Where values' tangents are after one compilation: `mat[v]` the entries of a materialised
+/// value (one `dot` index per column), or `lin[v]` a linear combination of materialised values'
+/// tangents with constant coefficients.
+struct TangentState {
+    mat: Vec<Option<Vec<u32>>>,
+    lin: Vec<Option<BTreeMap<u32, f64>>>,
+}
+
+impl TangentState {
+    fn entry(&self, ctx: &Ctx, x: u32, c: u32) -> Option<u32> {
+        let j = ctx.cols[x as usize].binary_search(&c).ok()?;
+        self.mat[x as usize].as_ref().map(|m| m[j])
+    }
+}
+
+/// Compiles forward tangents into multiply-add records. A linear operation with constant
+/// coefficients (`a + b`, `a - b`, `-a`, `c a`, `a / c`) is not swept at all: its tangent stays
+/// a combination of earlier tangents, materialised only where an output or a nonlinear operation
+/// reads it, and entries that are combinations of the inputs alone are constants (so the
+/// `x + dt f` of an integrator costs one multiply-add per entry of `f`, and an entry `1` of
+/// `x` nothing).
+struct TangentCompiler {
+    n_values: usize,
+    coef_base: u32,
+    coefs: Vec<f64>,
+    coef_of: BTreeMap<u64, u32>,
+    template: Vec<f64>,
+    records: Vec<Fma>,
+    n_runtime: u32,
+}
+
+impl TangentCompiler {
+    /// The `s` slot of the coefficient `c`.
+    fn coef(&mut self, c: f64) -> u32 {
+        if let Some(&k) = self.coef_of.get(&c.to_bits()) {
+            return k;
+        }
+        let k = self.coef_base + self.coefs.len() as u32;
+        self.coefs.push(c);
+        self.coef_of.insert(c.to_bits(), k);
+        k
+    }
+
+    fn constant_entry(&mut self, c: f64) -> u32 {
+        if c == 0.0 {
+            DOT_ZERO
+        } else if c == 1.0 {
+            DOT_ONE
+        } else {
+            self.template.push(c);
+            (self.template.len() - 1) as u32
+        }
+    }
+
+    fn runtime(&mut self) -> u32 {
+        let r = RUNTIME | self.n_runtime;
+        self.n_runtime += 1;
+        r
+    }
+
+    /// Tangents of the `relevant` values, materialising the `required` ones.
+    fn compile(&mut self, ctx: &Ctx, relevant: &[bool], required: &[u32]) -> TangentState {
+        let mut st = TangentState {
+            mat: vec![None; self.n_values],
+            lin: vec![None; self.n_values],
+        };
+        for k in 0..ctx.n {
+            st.mat[k] = Some(vec![DOT_ONE]);
+        }
+        for v in ctx.n..self.n_values {
+            if !relevant[v] || ctx.cols[v].is_empty() {
+                continue;
+            }
+            if let Some(l) = &ctx.linear[v] {
+                let mut m: BTreeMap<u32, f64> = BTreeMap::new();
+                for &(x, c) in l {
+                    match &st.lin[x as usize] {
+                        Some(lx) => {
+                            for (&a, &w) in lx {
+                                *m.entry(a).or_insert(0.0) += c * w;
+                            }
+                        }
+                        None => *m.entry(x).or_insert(0.0) += c,
+                    }
+                }
+                st.lin[v] = Some(m);
+                if st.lin[v].as_ref().is_some_and(|m| m.len() > MAX_TERMS) {
+                    self.materialise(ctx, &mut st, v as u32);
+                }
+                continue;
+            }
+            let (a, b) = ctx.args[v];
+            for x in [a, b].into_iter().flatten() {
+                if st.mat[x as usize].is_none() && st.lin[x as usize].is_some() {
+                    self.materialise(ctx, &mut st, x);
+                }
+            }
+            let (pa, pb) = ctx.first[v];
+            let mut entries = Vec::with_capacity(ctx.cols[v].len());
+            for &c in ctx.cols[v] {
+                let ea = a.and_then(|x| st.entry(ctx, x, c));
+                let eb = b.and_then(|x| st.entry(ctx, x, c));
+                let out = self.runtime();
+                let (p, x, q, y) = match (ea, eb) {
+                    (Some(x), Some(y)) => (pa, x, pb, y),
+                    (Some(x), None) => (pa, x, ctx.zero, DOT_ZERO),
+                    (None, Some(y)) => (pb, y, ctx.zero, DOT_ZERO),
+                    (None, None) => (ctx.zero, DOT_ZERO, ctx.zero, DOT_ZERO),
+                };
+                self.records.push(Fma { out, p, a: x, q, b: y });
+                entries.push(out);
+            }
+            st.mat[v] = Some(entries);
+        }
+        for &v in required {
+            if st.mat[v as usize].is_none() && st.lin[v as usize].is_some() {
+                self.materialise(ctx, &mut st, v);
+            }
+        }
+        st
+    }
+
+    /// Turns the combination `lin[v]` into entries: constants where only inputs contribute,
+    /// the entry itself where one tangent contributes with coefficient 1, else a chain of
+    /// multiply-adds.
+    fn materialise(&mut self, ctx: &Ctx, st: &mut TangentState, v: u32) {
+        let Some(m) = st.lin[v as usize].take() else {
+            return;
+        };
+        let mut entries = Vec::with_capacity(ctx.cols[v as usize].len());
+        for &c in ctx.cols[v as usize] {
+            let mut constant = 0.0;
+            let mut terms: Vec<(f64, u32)> = Vec::new();
+            for (&x, &w) in &m {
+                if let Some(e) = st.entry(ctx, x, c) {
+                    if e & RUNTIME == 0 {
+                        constant += w * self.template[e as usize];
+                    } else {
+                        terms.push((w, e));
+                    }
+                }
+            }
+            let e = match terms.as_slice() {
+                [] => self.constant_entry(constant),
+                [(w, e)] if *w == 1.0 && constant == 0.0 => *e,
+                _ => {
+                    let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(terms.len() + 1);
+                    if constant != 0.0 {
+                        pairs.push((self.coef(constant), DOT_ONE));
+                    }
+                    for &(w, e) in &terms {
+                        pairs.push((self.coef(w), e));
+                    }
+                    let out = self.runtime();
+                    let (p, a) = pairs[0];
+                    let (q, b) = pairs.get(1).copied().unwrap_or((ctx.zero, DOT_ZERO));
+                    self.records.push(Fma { out, p, a, q, b });
+                    let one = self.coef(1.0);
+                    for &(q, b) in pairs.iter().skip(2) {
+                        self.records.push(Fma {
+                            out,
+                            p: one,
+                            a: out,
+                            q,
+                            b,
+                        });
+                    }
+                    out
+                }
+            };
+            entries.push(e);
+        }
+        st.mat[v as usize] = Some(entries);
+    }
+}
+
+/// The values-only instruction list with `a +- c * b` (`c` a constant) fused into one instruction
+/// where the product has no other use: the same operations in the same order, so the same bits.
+fn fuse_scaled(instrs: Vec<Instr>, outputs: &[u32], is_const: impl Fn(u32) -> bool) -> Vec<Instr> {
+    let mut uses: BTreeMap<u32, usize> = BTreeMap::new();
+    for ins in &instrs {
+        *uses.entry(ins.a).or_default() += 1;
+        if matches!(ins.kind, Kind::Add | Kind::Sub | Kind::Mul | Kind::Binary(_)) {
+            *uses.entry(ins.b).or_default() += 1;
+        }
+    }
+    for &o in outputs {
+        *uses.entry(o).or_default() += 1;
+    }
+    // Products of a variable and a constant: slot -> (variable, constant).
+    let scaled: BTreeMap<u32, (u32, u32)> = instrs
+        .iter()
+        .filter(|i| i.kind == Kind::Mul && uses.get(&i.dst) == Some(&1))
+        .filter_map(|i| match (is_const(i.a), is_const(i.b)) {
+            (true, false) => Some((i.dst, (i.b, i.a))),
+            (false, true) => Some((i.dst, (i.a, i.b))),
+            _ => None,
+        })
+        .collect();
+    let mut fused = std::collections::BTreeSet::new();
+    let mut out: Vec<Instr> = instrs
+        .iter()
+        .map(|&ins| {
+            let pick = match ins.kind {
+                // x + c y (either order) and x - c y.
+                Kind::Add => scaled
+                    .get(&ins.b)
+                    .map(|&p| (ins.a, ins.b, p))
+                    .or_else(|| scaled.get(&ins.a).map(|&p| (ins.b, ins.a, p))),
+                Kind::Sub => scaled.get(&ins.b).map(|&p| (ins.a, ins.b, p)),
+                _ => None,
+            };
+            match pick {
+                Some((x, product, (y, c))) if !fused.contains(&product) => {
+                    fused.insert(product);
+                    let kind = if ins.kind == Kind::Add {
+                        Kind::AddScaled
+                    } else {
+                        Kind::SubScaled
+                    };
+                    Instr {
+                        kind,
+                        a: x,
+                        b: y,
+                        dst: ins.dst,
+                        d: c,
+                    }
+                }
+                _ => ins,
+            }
+        })
+        .collect();
+    out.retain(|i| !(i.kind == Kind::Mul && fused.contains(&i.dst)));
+    out
+}

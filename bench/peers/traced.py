@@ -5,6 +5,7 @@ Python-subclassed action model, in one process.
 
     python bench/peers/traced.py [--repeats 20] [--crocoddyl-repeats 3] [--json results.json]
                                  [--problems cartpole,acrobot,...] [--skip-crocoddyl]
+                                 [--warm-up portfolio|augmented_lagrangian|barrier|none]
 
 Problems (RK4 step of 0.05 s, control held over a step):
 
@@ -260,7 +261,7 @@ class Entry:
     result: tuple = ()
 
 
-def ddpkit_entry(m: Model, traced: bool) -> Entry:
+def ddpkit_entry(m: Model, traced: bool, warm_up: str = "portfolio") -> Entry:
     step, running, terminal = m.functions
     con = None
     if traced:
@@ -279,7 +280,7 @@ def ddpkit_entry(m: Model, traced: bool) -> Entry:
         solver: Any = ddpkit.Solver(problem, method=m.method, max_iterations=500)
         name = "Solver"
     else:
-        solver = ddpkit.SafeCddpSolver(problem, [con], method=m.method, max_iterations=500)
+        solver = ddpkit.SafeCddpSolver(problem, [con], method=m.method, max_iterations=500, warm_up=warm_up)
         name = "SafeCddpSolver"
     us0 = np.tile(guess(m), (m.n, 1))
 
@@ -407,9 +408,9 @@ def crocoddyl_entry(m: Model, crocoddyl: Any) -> Entry:
     return Entry(f"Crocoddyl {name} (Python action model{extra})", solve, "crocoddyl")
 
 
-def run(m: Model, repeats: int, crocoddyl: Any, croc_repeats: int) -> list[dict]:
+def run(m: Model, repeats: int, crocoddyl: Any, croc_repeats: int, warm_up: str = "portfolio") -> list[dict]:
     m.build()
-    entries = [ddpkit_entry(m, False), ddpkit_entry(m, True), casadi_entry(m, "ipopt"), casadi_entry(m, "fatrop")]
+    entries = [ddpkit_entry(m, False, warm_up), ddpkit_entry(m, True, warm_up), casadi_entry(m, "ipopt"), casadi_entry(m, "fatrop")]
     if crocoddyl is not None:
         entries.append(crocoddyl_entry(m, crocoddyl))
     for e in entries:  # untimed: CasADi builds its NLP solver on the first solve
@@ -475,6 +476,12 @@ def main() -> int:
     ap.add_argument(
         "--crocoddyl-repeats", type=int, default=3, help="timed Crocoddyl solves (its Python model takes seconds per solve; at most --repeats)"
     )
+    ap.add_argument(
+        "--warm-up",
+        default="portfolio",
+        choices=["portfolio", "augmented_lagrangian", "barrier", "none"],
+        help="SafeCddpSolver's warm_up on constrained problems (default: the library's default, portfolio)",
+    )
     ap.add_argument("--skip-crocoddyl", action="store_true", help="run without the Crocoddyl column")
     args = ap.parse_args()
     if args.repeats < 1 or args.crocoddyl_repeats < 1:
@@ -497,7 +504,7 @@ def main() -> int:
             return 2
     rows = []
     for name in names:
-        rows += run(PROBLEMS[name](), args.repeats, crocoddyl, min(args.repeats, args.crocoddyl_repeats))
+        rows += run(PROBLEMS[name](), args.repeats, crocoddyl, min(args.repeats, args.crocoddyl_repeats), args.warm_up)
     print("| problem | solver | status | iterations | cost | max violation | ms / solve | time / ddpkit from_casadi |")
     print("|---|---|---|---:|---:|---:|---:|---:|")
     for r in rows:
@@ -515,7 +522,7 @@ def main() -> int:
         cr = "-" if t["crocoddyl_speedup"] is None else f"{t['crocoddyl_speedup']:.1f}"
         print(f"| {t['problem']} | {t['solver']} | {'yes' if t['feasible'] else 'no'} | {gap} | {'met' if t['cost_ok'] else 'missed'} | {ip} | {cr} |")
     if args.json:
-        meta = {"repeats": args.repeats, "crocoddyl_repeats": min(args.repeats, args.crocoddyl_repeats), "casadi": ca.__version__, "crocoddyl": getattr(crocoddyl, "__version__", None)}
+        meta = {"repeats": args.repeats, "warm_up": args.warm_up, "crocoddyl_repeats": min(args.repeats, args.crocoddyl_repeats), "casadi": ca.__version__, "crocoddyl": getattr(crocoddyl, "__version__", None)}
         args.json.write_text(json.dumps({"meta": meta, "rows": rows, "targets": checks}, indent=1))
     return 0
 

@@ -522,7 +522,13 @@ def main() -> int:
         cr = "-" if t["crocoddyl_speedup"] is None else f"{t['crocoddyl_speedup']:.1f}"
         print(f"| {t['problem']} | {t['solver']} | {'yes' if t['feasible'] else 'no'} | {gap} | {'met' if t['cost_ok'] else 'missed'} | {ip} | {cr} |")
     if args.json:
-        meta = {"repeats": args.repeats, "warm_up": args.warm_up, "crocoddyl_repeats": min(args.repeats, args.crocoddyl_repeats), "casadi": ca.__version__, "crocoddyl": getattr(crocoddyl, "__version__", None)}
+        meta = {
+            "repeats": args.repeats,
+            "crocoddyl_repeats": min(args.repeats, args.crocoddyl_repeats),
+            "warm_up": args.warm_up,
+            "casadi": ca.__version__,
+            "crocoddyl": getattr(crocoddyl, "__version__", None),
+        }
         args.json.write_text(json.dumps({"meta": meta, "rows": rows, "targets": checks}, indent=1))
     return 0
 

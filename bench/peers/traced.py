@@ -468,6 +468,11 @@ def targets(rows: list[dict]) -> list[dict]:
     return out
 
 
+def md(text: str) -> str:
+    """A table cell: `|` escaped (the pendulum's name has one)."""
+    return text.replace("|", "\\|")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=20, help="cold solves per solver (median reported)")
@@ -509,7 +514,7 @@ def main() -> int:
     print("|---|---|---|---:|---:|---:|---:|---:|")
     for r in rows:
         print(
-            f"| {r['problem']} | {r['solver']} | {r['status']} | {r['iterations']} | {r['cost']:.6f} | "
+            f"| {md(r['problem'])} | {r['solver']} | {r['status']} | {r['iterations']} | {r['cost']:.6f} | "
             f"{r['max_violation']:.1e} | {r['ms']:.2f} | {r['ratio']:.1f} |"
         )
     checks = targets(rows)
@@ -520,7 +525,7 @@ def main() -> int:
         gap = "-" if t["cost_gap"] is None else f"{t['cost_gap']:.1e}"
         ip = "-" if t["ipopt_speedup"] is None else f"{t['ipopt_speedup']:.1f}"
         cr = "-" if t["crocoddyl_speedup"] is None else f"{t['crocoddyl_speedup']:.1f}"
-        print(f"| {t['problem']} | {t['solver']} | {'yes' if t['feasible'] else 'no'} | {gap} | {'met' if t['cost_ok'] else 'missed'} | {ip} | {cr} |")
+        print(f"| {md(t['problem'])} | {t['solver']} | {'yes' if t['feasible'] else 'no'} | {gap} | {'met' if t['cost_ok'] else 'missed'} | {ip} | {cr} |")
     if args.json:
         meta = {
             "repeats": args.repeats,

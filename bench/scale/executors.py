@@ -5,7 +5,7 @@ samples per second (Gamayunov et al. 2023); then, on paper from the measured per
 8 and 64 nodes would take for Table I with 10,000 episodes per beta and for a 10-million-sample
 dataset.
 
-    python bench/scale/executors.py --episodes 6 --workers 2 --json bench/results/executors.json
+    python bench/scale/executors.py --episodes 24 --workers 2 --samples 200 --json bench/results/executors.json
 
 Overhead per task of a back end with ``W`` workers: ``(wall * W - sum of task times) / n``, where
 ``wall`` runs from the executor's start (workers up) to the last result stored and the task times

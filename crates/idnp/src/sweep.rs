@@ -224,26 +224,59 @@ mod tests {
         // Everything but the wall times.
         let strip = |c: &CaseResult| {
             let mut c = c.clone();
-            for m in [&mut c.fixed, &mut c.adaptive, &mut c.optimizer].into_iter().chain(c.uniform.as_mut()) {
+            for m in [&mut c.fixed, &mut c.adaptive, &mut c.optimizer]
+                .into_iter()
+                .chain(c.uniform.as_mut())
+            {
                 (m.dp_time, m.inverse_time, m.nlp_time) = (0.0, 0.0, 0.0);
             }
             c
         };
-        assert_eq!(a.cases.iter().map(strip).collect::<Vec<_>>(), whole.cases.iter().map(strip).collect::<Vec<_>>());
+        assert_eq!(
+            a.cases.iter().map(strip).collect::<Vec<_>>(),
+            whole.cases.iter().map(strip).collect::<Vec<_>>()
+        );
         assert_eq!(a.summary.solved_adaptive, whole.summary.solved_adaptive);
     }
 
     #[test]
     fn bad_configurations_name_their_field() {
         for (config, field) in [
-            (IdnpConfig { n: 0, ..IdnpConfig::default() }, "n"),
-            (IdnpConfig { iterations: 0, ..IdnpConfig::default() }, "iterations"),
-            (IdnpConfig { optimizer_iterations: 0, ..IdnpConfig::default() }, "optimizer_iterations"),
-            (IdnpConfig { region: Some([[f64::NAN, 0.0], [1.0, 1.0]]), ..IdnpConfig::default() }, "region"),
+            (
+                IdnpConfig {
+                    n: 0,
+                    ..IdnpConfig::default()
+                },
+                "n",
+            ),
+            (
+                IdnpConfig {
+                    iterations: 0,
+                    ..IdnpConfig::default()
+                },
+                "iterations",
+            ),
+            (
+                IdnpConfig {
+                    optimizer_iterations: 0,
+                    ..IdnpConfig::default()
+                },
+                "optimizer_iterations",
+            ),
+            (
+                IdnpConfig {
+                    region: Some([[f64::NAN, 0.0], [1.0, 1.0]]),
+                    ..IdnpConfig::default()
+                },
+                "region",
+            ),
         ] {
             let e = tasks(&config).unwrap_err().to_string();
             assert!(e.contains(field), "{e}");
         }
-        assert!(serde_json::from_str::<IdnpConfig>(r#"{"cases": 3}"#).unwrap_err().to_string().contains("cases"));
+        assert!(serde_json::from_str::<IdnpConfig>(r#"{"cases": 3}"#)
+            .unwrap_err()
+            .to_string()
+            .contains("cases"));
     }
 }

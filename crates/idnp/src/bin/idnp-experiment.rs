@@ -16,8 +16,8 @@ use idnp::experiment::{run_idnp, ExperimentResult};
 use idnp::idnp::Variant;
 use idnp::scene::Scene;
 use idnp::sweep::{self, IdnpConfig};
-use rayon::prelude::*;
 use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
 
 /// IDNP with adaptive grid refinement: the experiment of Richter et al. (2023) on a planar base
 /// with a 2-link arm and a narrow passage.

@@ -124,3 +124,23 @@ fn bad_settings_and_shapes_are_errors() {
         .to_string();
     assert!(e.contains("dt") || e.contains("missing field"), "{e}");
 }
+
+/// Problem 65 of the point family, seed 1 (`bench/results/family_s1_210.json`), whose optimum
+/// FATROP found at 0.155665931.
+const POINT_S1_I65: &str = r#"{"name": "point-s1-i65-a0", "model": "point", "dt": 0.0827, "N": 98, "x0": [0.0, 0.0, 0.0, 0.0], "cost": {"kind": "quad_goal", "x_goal": [2.6372, 0.0135, 0.0, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "u_min": [-0.5071, -1.0047], "u_max": [0.5071, 1.0047], "obstacles": [[1.796, 0.2201, 0.3006], [1.2012, 0.005, 0.4724], [1.7618, -0.2923, 0.4881], [1.1456, -0.023, 0.3288]]}"#;
+
+#[test]
+fn rows_with_positive_multipliers_stay_active_at_the_hand_over() {
+    // The augmented Lagrangian handed over with three contact rows 1e-6 to 6e-6 inside their
+    // boundary (beyond the active threshold) but with positive multipliers; the KKT/QP
+    // iterations dropped them, their first step ran into the obstacles and was rejected, and
+    // the solve ended at the warm-up's point, 8.3e-6 above the optimum.
+    let bp = BenchmarkProblem::from_json(POINT_S1_I65).unwrap();
+    let (problem, constraints) = bp.car_or_point().unwrap();
+    let mut solver = SafeCddpSolver::new(&problem, constraints, Settings::default()).unwrap();
+    let r = solver.solve(&problem).unwrap();
+    assert_eq!(r.status, Status::Converged);
+    assert!(r.max_violation <= 1e-8, "violation {}", r.max_violation);
+    let fatrop = 0.15566593142679913;
+    assert!(r.cost <= fatrop * (1.0 + 1e-6), "cost {} against {fatrop}", r.cost);
+}

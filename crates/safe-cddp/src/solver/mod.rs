@@ -787,6 +787,7 @@ where
             rows: &mut self.rows,
             eps: s.active_threshold,
             first_row,
+            keep_positive: !self.warm.active,
             hessian: s.constraint_hessian && !self.warm.active,
         };
         self.core.backward(problem, &mut gains, opts)

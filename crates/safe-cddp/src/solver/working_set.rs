@@ -2,9 +2,12 @@
 //! (2017), eqs. (10)-(12), plugged into the one DDP backward pass of `ddp-core` as its
 //! [`Gains`] (the way Crocoddyl's BoxDDP overrides only `computeGains`).
 //!
-//! At knot `k`, rows with `g~ > -epsilon` form the active set; a working set of at most `nu`
-//! rows independent in the `Q_uu^{-1}` metric is taken greedily (most active first); rows with
-//! negative multipliers are pruned one at a time:
+//! At knot `k`, rows with `g~ > -epsilon` form the active set, and so do rows whose multiplier
+//! from the previous backward pass (or the warm-up's hand-over) is positive: a row that the
+//! augmented Lagrangian leaves a little inside its boundary (further than `epsilon`) would
+//! otherwise drop out, and the first KKT step would run through it. A working set of at most
+//! `nu` rows independent in the `Q_uu^{-1}` metric is taken greedily (most active first); rows
+//! with negative multipliers are pruned one at a time:
 //!
 //! ```text
 //! lambda = -(C_W Q_uu^-1 C_W^T)^-1 C_W Q_uu^-1 Q_u                      (10)
@@ -94,6 +97,9 @@ where
     /// First row of a knot that may enter the working set (the warm-up keeps only the control
     /// bounds there: its constraint rows are in the cost).
     pub first_row: usize,
+    /// Rows with a positive multiplier `rows.lambda` are active whatever their `g~` (the KKT/QP
+    /// iterations; the warm-up's working set holds only control bounds).
+    pub keep_positive: bool,
     /// Add the constraint curvature `h_con` to `Q_xx`.
     pub hessian: bool,
 }
@@ -150,8 +156,8 @@ impl<NX: Dim, NU: Dim> KktGains<'_, NX, NU>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    /// The active set of knot `k`: rows with `g~ > -epsilon`, most active first (into `cand`);
-    /// clears the knot's multipliers.
+    /// The active set of knot `k`: rows with `g~ > -epsilon` or (with `keep_positive`) a
+    /// positive multiplier, most active first (into `cand`); clears the knot's multipliers.
     fn active_set(&mut self, k: usize) {
         let (w, rows) = (&mut *self.kkt, &mut *self.rows);
         let base = k * rows.m;
@@ -160,7 +166,7 @@ where
             let idx = base + i;
             if i >= self.first_row && rows.present[idx] {
                 let g = rows.g[idx] + rows.margin[idx];
-                if g > -self.eps {
+                if g > -self.eps || (self.keep_positive && rows.lambda[idx] > 0.0) {
                     w.cand.push((g, i));
                 }
             }

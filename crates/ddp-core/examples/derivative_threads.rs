@@ -1,7 +1,9 @@
 //! Where `Settings::derivative_threads` pays: the derivative phase (dynamics Jacobians and cost
 //! derivatives of every knot, `Solver::linearize`) and a whole iLQR solve, on 1 and 2 threads,
 //! for the built-in quadrotor (12 states, 4 controls) and the floating base with a 2-link arm
-//! (10 states, 5 controls) at N = 100 and N = 1000, measured in one run (medians). Results are
+//! (10 states, 5 controls) at N = 100 and N = 1000, and the quadrotor without its analytic
+//! derivatives (central differences of its `step`, [`FiniteDiff`]: 32 steps per knot, the cost
+//! of a model a user brings without derivatives), measured in one run (medians). Results are
 //! checked bit-identical.
 //!
 //! `cargo build --release -p ddp-core --features parallel --example derivative_threads &&
@@ -9,7 +11,11 @@
 use std::time::{Duration, Instant};
 
 use ddp_core::dims::{Alloc, DefaultAllocator, Dim};
-use ddp_core::reference::{arm_base_reach_horizon, quadrotor_reach_horizon};
+use std::sync::Arc;
+
+use ddp_core::finite_diff::FiniteDiff;
+use ddp_core::models::Quadrotor;
+use ddp_core::reference::{arm_base_reach_horizon, quadrotor_reach_horizon, quadrotor_reach_with};
 use ddp_core::{Problem, Settings, Solver};
 
 fn median(mut v: Vec<Duration>) -> f64 {
@@ -76,6 +82,8 @@ fn main() -> ddp_core::Result<()> {
     for n in [100, 1000] {
         row("quadrotor (12, 4)", &quadrotor_reach_horizon(n))?;
         row("arm on floating base (10, 5)", &arm_base_reach_horizon(n))?;
+        let fd = Arc::new(FiniteDiff::of_dynamics(Quadrotor::new(0.02)?));
+        row("quadrotor, finite differences", &quadrotor_reach_with(fd, n))?;
     }
     Ok(())
 }

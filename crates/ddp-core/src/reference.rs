@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 use crate::costs::{QuadraticCost, QuadraticTerminal};
 use crate::models::{ArmBase, Car, DifferentialDrive, DoubleIntegrator2D, Quadrotor, Unicycle};
-use crate::{ControlBounds, Problem, Vector};
+use crate::{ControlBounds, Dynamics, Problem, Vector};
 
 /// P1: Crocoddyl's `ActionModelUnicycle` with its defaults, `x0 = (-1, -1, 1)`, N = 100.
 pub fn p1_unicycle() -> Problem<U3, U2> {
@@ -102,7 +102,13 @@ pub fn quadrotor_reach() -> Problem<U12, U4> {
 /// [`quadrotor_reach`] with `n` knots (the derivative-thread benchmark's long horizons).
 pub fn quadrotor_reach_horizon(n: usize) -> Problem<U12, U4> {
     let model = Quadrotor::new(0.02).expect("valid model");
-    let hover = model.hover_thrust();
+    quadrotor_reach_with(Arc::new(model), n)
+}
+
+/// [`quadrotor_reach_horizon`] with `dynamics` in place of the quadrotor (the same quadrotor
+/// wrapped, e.g. in finite differences); the costs use the built-in quadrotor's hover thrust.
+pub fn quadrotor_reach_with(dynamics: Arc<dyn Dynamics<U12, U4>>, n: usize) -> Problem<U12, U4> {
+    let hover = Quadrotor::new(0.02).expect("valid model").hover_thrust();
     let mut goal = Vector::<12>::zeros();
     goal[0] = 1.0;
     goal[2] = 0.5;
@@ -122,7 +128,7 @@ pub fn quadrotor_reach_horizon(n: usize) -> Problem<U12, U4> {
         )
         .expect("valid weights"),
     );
-    Problem::new(Vector::zeros(), Arc::new(model), running, terminal, n).expect("valid problem")
+    Problem::new(Vector::zeros(), dynamics, running, terminal, n).expect("valid problem")
 }
 
 /// The planar floating base with a 2-link arm (`dt = 0.05`, N = 60), moving the base 0.5 m and

@@ -12,6 +12,8 @@
 //! | `safe-table` | [`safe_cddp::sweep`] | one MPC episode of Table I (Alcan and Kyrki 2022) |
 //! | `subgoal-dataset` | [`subgoal_infer::dataset::sweep`] | one shard of the DDPEN sub-goal dataset (Gamayunov et al. 2023), written by the task into `out_dir` |
 //! | `idnp` | [`idnp::sweep`] | one initial condition of the IDNP experiment (Richter et al. 2023), every method |
+//! | `ddpen-table` | [`sim2d::sweep`] | one run of DDPEN's Table I (Gamayunov et al. 2023): set, planner, direction, seed |
+//! | `trap-bench` | [`sim2d::sweep`] | one run of the randomised trap benchmark: seeded map, planner |
 //!
 //! Running a task releases the GIL. Every error is a `ddpkit.DdpError` naming the argument (and,
 //! inside it, the field); a panic inside a task is caught and reported as an error too, so an
@@ -38,12 +40,20 @@ fn ds(arg: &str, e: DatasetError) -> CoreError {
 }
 
 /// The experiments, by the names the Python CLI uses.
-const NAMES: [&str; 3] = ["safe-table", "subgoal-dataset", "idnp"];
+const NAMES: [&str; 5] = ["safe-table", "subgoal-dataset", "idnp", "ddpen-table", "trap-bench"];
 
 /// An IDNP error as a ddpkit error naming `arg.field` (or `arg` for a numerical failure).
 fn idnp_err(arg: &str, e: idnp::Error) -> CoreError {
     match e {
         idnp::Error::Invalid { field, reason } => invalid(format!("{arg}.{field}"), reason),
+        other => invalid(arg, other.to_string()),
+    }
+}
+
+/// A sim2d error as a ddpkit error naming `arg.field` (or `arg` for a file or run failure).
+fn sim_err(arg: &str, e: sim2d::Error) -> CoreError {
+    match e {
+        sim2d::Error::Invalid { field, reason } => invalid(format!("{arg}.{field}"), reason),
         other => invalid(arg, other.to_string()),
     }
 }
@@ -85,6 +95,16 @@ fn tasks_of(name: &str, config_json: &str) -> CoreResult<Vec<String>> {
             let tasks = idnp::sweep::tasks(&config).map_err(|e| idnp_err("config_json", e))?;
             tasks.iter().map(|t| to_json("spec", t)).collect()
         }
+        "ddpen-table" => {
+            let config: sim2d::sweep::TableConfig = parse("config_json", config_json)?;
+            let tasks = sim2d::sweep::table_tasks(&config).map_err(|e| sim_err("config_json", e))?;
+            tasks.iter().map(|t| to_json("spec", t)).collect()
+        }
+        "trap-bench" => {
+            let config: sim2d::sweep::TrapConfig = parse("config_json", config_json)?;
+            let tasks = sim2d::sweep::trap_tasks(&config).map_err(|e| sim_err("config_json", e))?;
+            tasks.iter().map(|t| to_json("spec", t)).collect()
+        }
         _ => Err(unknown(name)),
     }
 }
@@ -104,6 +124,16 @@ fn run_of(name: &str, spec_json: &str) -> CoreResult<String> {
         "idnp" => {
             let task: idnp::sweep::CaseTask = parse("spec_json", spec_json)?;
             let result = idnp::sweep::run_task(&task).map_err(|e| idnp_err("spec_json", e))?;
+            to_json("result", &result)
+        }
+        "ddpen-table" => {
+            let task: sim2d::sweep::TableTask = parse("spec_json", spec_json)?;
+            let result = sim2d::sweep::run_table_task(&task).map_err(|e| sim_err("spec_json", e))?;
+            to_json("result", &result)
+        }
+        "trap-bench" => {
+            let task: sim2d::sweep::TrapTask = parse("spec_json", spec_json)?;
+            let result = sim2d::sweep::run_trap_task(&task).map_err(|e| sim_err("spec_json", e))?;
             to_json("result", &result)
         }
         _ => Err(unknown(name)),
@@ -183,6 +213,39 @@ fn aggregate_of(
             write_text(&path, &json)?;
             let mut text = idnp::sweep::report(&config, &result);
             text.push_str(&format!("results: {}\n", path.display()));
+            Ok(text)
+        }
+        "ddpen-table" => {
+            // The binary's `--json` file and figures (the MCAP logs are the binary's alone).
+            let config: sim2d::sweep::TableConfig = parse("config_json", config_json)?;
+            let runs: Vec<sim2d::RunResult> = parse_all(results)?;
+            let report = sim2d::sweep::aggregate_table(&config, &runs).map_err(|e| sim_err("results_json", e))?;
+            let tasks = sim2d::sweep::table_tasks(&config).map_err(|e| sim_err("config_json", e))?;
+            let figures =
+                sim2d::sweep::table_figures(&config, &tasks, &runs, out_dir).map_err(|e| sim_err("out_dir", e))?;
+            let path = out_dir.join("table.json");
+            sim2d::batch::write_json(&path, &report.json()).map_err(|e| sim_err("out_dir", e))?;
+            let mut text = report.render(info.seconds);
+            if !figures.is_empty() {
+                text.push_str(&format!("figures in {}\n", out_dir.display()));
+            }
+            text.push_str(&format!("JSON in {}\n", path.display()));
+            Ok(text)
+        }
+        "trap-bench" => {
+            let config: sim2d::sweep::TrapConfig = parse("config_json", config_json)?;
+            let runs: Vec<sim2d::RunResult> = parse_all(results)?;
+            let report = sim2d::sweep::aggregate_traps(&config, &runs).map_err(|e| sim_err("results_json", e))?;
+            let tasks = sim2d::sweep::trap_tasks(&config).map_err(|e| sim_err("config_json", e))?;
+            let figures =
+                sim2d::sweep::trap_figures(&config, &tasks, &runs, out_dir).map_err(|e| sim_err("out_dir", e))?;
+            let path = out_dir.join("bench.json");
+            sim2d::batch::write_json(&path, &report.json()).map_err(|e| sim_err("out_dir", e))?;
+            let mut text = report.render(info.seconds);
+            if !figures.is_empty() {
+                text.push_str(&format!("{} PNG top views in {}\n", figures.len(), out_dir.display()));
+            }
+            text.push_str(&format!("JSON in {}\n", path.display()));
             Ok(text)
         }
         _ => Err(unknown(name)),

@@ -17,7 +17,8 @@ def binary(name: str) -> str:
     path = os.path.join(target, "release", name)
     assert os.path.isfile(path), (
         f"{path} is missing: build it with `cargo build --release -p safe-cddp --bin safe-cddp-table "
-        "-p subgoal-infer --bin subgoal-dataset -p idnp --bin idnp-experiment` (scripts/test.sh does)"
+        "-p subgoal-infer --bin subgoal-dataset -p idnp --bin idnp-experiment -p sim2d --bin ddpen-table --bin trap-bench` "
+        "(scripts/test.sh does)"
     )
     return path
 
@@ -71,4 +72,33 @@ def _strip_times(value: Any) -> Any:
         }
     if isinstance(value, list):
         return [_strip_times(v) for v in value]
+    return value
+
+
+#: Fields of sim2d run results and their tables that are wall-clock measurements.
+SIM2D_MEASURED_FIELDS = (
+    "timing",
+    "real_time_factor",
+    "epoch_ms",
+    "epoch_stats",
+    "cycle_stats",
+    "cycle_ms_mean",
+    "cycle_ms_p99_max",
+)
+
+
+def sim2d_without_measured(value: Any) -> Any:
+    """A sim2d run result, or a ``ddpen-table``/``trap-bench`` JSON file's contents, with every
+    wall-clock measurement removed (compute times and real-time factors); the rest is a function
+    of the seed and compared exactly."""
+    if isinstance(value, str):
+        value = json.loads(value)
+    return _strip_sim2d(value)
+
+
+def _strip_sim2d(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _strip_sim2d(v) for k, v in value.items() if k not in SIM2D_MEASURED_FIELDS}
+    if isinstance(value, list):
+        return [_strip_sim2d(v) for v in value]
     return value

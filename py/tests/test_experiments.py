@@ -16,7 +16,14 @@ import pytest
 from ddpkit import experiments
 from ddpkit.experiments import ExperimentError, ResultStore, StoreWriter, run_sweep
 
-from _experiments_util import binary, idnp_without_times, run_binary, table_without_run_fields, tree_bytes
+from _experiments_util import (
+    binary,
+    idnp_without_times,
+    run_binary,
+    sim2d_without_measured,
+    table_without_run_fields,
+    tree_bytes,
+)
 
 #: A few Table I episodes: the point robot under CDDP and Safe-CDDP (beta 0.99).
 TABLE = {"episodes": 2, "seed": 3, "robots": ["point"], "betas": [0.5, 0.99]}
@@ -204,3 +211,100 @@ def test_idnp_bad_configuration_names_the_field_before_any_task(tmp_path: Any) -
     with pytest.raises(ExperimentError, match="unknown field `cases`"):
         run_sweep("idnp", {"cases": 2}, out_dir=str(tmp_path), progress=False)
     assert not os.path.isdir(os.path.join(str(tmp_path), "tasks", "idnp")), "no task ran"
+
+
+#: DDPEN's Table I (Gamayunov et al. 2023) on a 12 m route past one cylinder: DDP, both
+#: directions, one run each (about a second).
+SHORT_SET = (
+    'name = "short"\n[route]\npoints = [[0.0, 0.0], [12.0, 0.0]]\n'
+    '[[obstacles]]\ntype = "cylinder"\ncenter = [6.0, 0.6]\nradius = 0.5\n'
+)
+
+
+def _ddpen_config(folder: str) -> dict[str, Any]:
+    return {"scenarios": folder, "sets": ["short"], "planners": ["ddp"], "runs": 1, "seed": 3, "png": False}
+
+
+def _json(path: Any) -> Any:
+    with open(path) as f:
+        return json.load(f)
+
+
+def test_ddpen_table_on_processes_equals_sequential_and_the_binary_except_measured_fields(tmp_path: Any) -> None:
+    folder = tmp_path / "scenarios"
+    folder.mkdir()
+    (folder / "short.toml").write_text(SHORT_SET)
+    config = _ddpen_config(str(folder))
+    seq = run_sweep("ddpen-table", config, "sequential", out_dir=str(tmp_path / "seq"), progress=False)
+    par = run_sweep("ddpen-table", config, "processes", workers=2, out_dir=str(tmp_path / "par"), progress=False)
+    assert (seq.failed, seq.total, par.failed, par.total) == (0, 2, 0, 2)
+    stripped = [sim2d_without_measured(r) for r in seq.results]
+    assert stripped == [sim2d_without_measured(r) for r in par.results]
+    assert [(r["direction"], r["completed"]) for r in stripped] == [("forward", True), ("backward", True)]
+    run_binary(
+        "ddpen-table", "--scenarios", str(folder), "--sets", "short", "--planner", "ddp", "--runs", "1",
+        "--seed", "3", "--no-mcap", "--no-png", "--quiet", "--out", str(tmp_path / "bin"),
+        "--json", str(tmp_path / "bin" / "table.json"),
+    )
+    want = sim2d_without_measured(_json(tmp_path / "bin" / "table.json"))
+    assert sim2d_without_measured(_json(tmp_path / "seq" / "table.json")) == want
+    assert sim2d_without_measured(_json(tmp_path / "par" / "table.json")) == want
+    assert "| Short |" in seq.text
+
+
+#: The trap benchmark on one U trap with a 16 m route: DDP and DDPEN with oracle sub-goals.
+TRAPS = {
+    "types": ["u"], "maps": 1, "planners": ["ddp", "ddpen-oracle"], "seed": 2, "route_length": 16.0,
+    "stall_time": 10.0, "max_time": 40.0, "png": 1,
+}
+
+
+def test_trap_bench_on_processes_equals_sequential_and_the_binary_except_measured_fields(tmp_path: Any) -> None:
+    seq = run_sweep("trap-bench", TRAPS, "sequential", out_dir=str(tmp_path / "seq"), progress=False)
+    par = run_sweep("trap-bench", TRAPS, "processes", workers=2, out_dir=str(tmp_path / "par"), progress=False)
+    assert (seq.failed, seq.total, par.failed, par.total) == (0, 2, 0, 2)
+    assert [sim2d_without_measured(r) for r in seq.results] == [sim2d_without_measured(r) for r in par.results]
+    run_binary(
+        "trap-bench", "--types", "u", "--maps", "1", "--planner", "ddp", "--planner", "ddpen-oracle", "--seed", "2",
+        "--route-length", "16", "--stall-time", "10", "--max-time", "40", "--png", "1", "--quiet",
+        "--out", str(tmp_path / "bin"), "--json", str(tmp_path / "bin" / "bench.json"),
+    )
+    want = sim2d_without_measured(_json(tmp_path / "bin" / "bench.json"))
+    assert sim2d_without_measured(_json(tmp_path / "seq" / "bench.json")) == want
+    assert sim2d_without_measured(_json(tmp_path / "par" / "bench.json")) == want
+    # The figure of the one map, with both planners' paths, as the binary draws it.
+    pngs = sorted(n for n in os.listdir(tmp_path / "bin") if n.endswith(".png"))
+    assert pngs and pngs == sorted(n for n in os.listdir(tmp_path / "seq") if n.endswith(".png"))
+    assert "| u |" in seq.text
+
+
+def test_trap_bench_cli_flags_reach_the_configuration(tmp_path: Any) -> None:
+    cmd = [
+        sys.executable, "-m", "ddpkit.experiments", "trap-bench", "--types", "u", "--maps", "1", "--planners", "ddp",
+        "--route-length", "16", "--stall-time", "10", "--max-time", "40", "--png", "0", "--horizon", "30",
+        "--no-governor", "--out", str(tmp_path), "--no-progress",
+    ]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    config = _json(tmp_path / "bench.json")["config"]
+    assert (config["ddp"]["horizon"], config["governor"]["enabled"], config["stall_time"]) == (30, False, 10.0)
+
+
+@pytest.mark.parametrize(
+    "name, config, words",
+    [
+        ("ddpen-table", {"runs": 0}, [r"config_json\.runs is invalid: must be at least 1"]),
+        ("ddpen-table", {"set": ["free"]}, ["unknown field `set`"]),
+        ("ddpen-table", {"sets": ["nowhere"]}, ["nowhere.toml"]),
+        ("trap-bench", {"types": ["v"]}, ["unknown variant `v`"]),
+        ("trap-bench", {"route_length": 3.0}, [r"config_json\.traps\.route_length is invalid"]),
+        ("trap-bench", {"options": {"w_contact": -1.0}}, [r"config_json\.ddp\.w_contact is invalid"]),
+    ],
+)
+def test_sim2d_bad_configuration_names_the_field_before_any_task(
+    tmp_path: Any, name: str, config: dict[str, Any], words: list[str]
+) -> None:
+    for w in words:
+        with pytest.raises(ExperimentError, match=w):
+            run_sweep(name, config, out_dir=str(tmp_path), progress=False)
+    assert not os.path.isdir(os.path.join(str(tmp_path), "tasks", name)), "no task ran"

@@ -448,6 +448,10 @@ def test_slow_entry_points_reject_garbage(tmp_path: Any) -> None:
         lambda: ext.experiment_tasks("idnp", '{"cases": 3}'),
         lambda: ext.experiment_run_task("idnp", '{"index": 0}'),
         lambda: ext.experiment_aggregate("idnp", '{"n": 2}', ["{}"], str(tmp_path / "i")),
+        lambda: ext.experiment_tasks("trap-bench", '{"maps": -1}'),
+        lambda: ext.experiment_run_task("trap-bench", '{"kind": "u"}'),
+        lambda: ext.experiment_run_task("ddpen-table", '{"scenario": "", "run": 0}'),
+        lambda: ext.experiment_aggregate("ddpen-table", '{"runs": 1}', ["{}"], str(tmp_path / "d")),
     ]:
         with pytest.raises(ALLOWED):
             call()

@@ -59,8 +59,10 @@ impl LiveArgs {
     }
 }
 
-/// Planner and executor options (each left out keeps [`RunConfig::default`]'s value).
-#[derive(Debug, Clone, Default, clap::Args)]
+/// Planner and executor options (each left out keeps [`RunConfig::default`]'s value). Also the
+/// `options` of the sweeps' configurations ([`crate::sweep`]), where every field may be left out.
+#[derive(Debug, Clone, Default, PartialEq, clap::Args, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct PlannerArgs {
     /// Planner horizon N (knots of 0.1 s).
     #[arg(long)]

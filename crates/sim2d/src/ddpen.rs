@@ -74,7 +74,8 @@ pub const ORACLE_STEPS: [usize; 3] = [30, 50, 70];
 
 /// DDPEN's parameters beyond the optimiser's [`DdpParams`] (defaults: the table in the module
 /// docs).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DdpenParams {
     /// `w_s`, sub-goal distance (eq. 9), per sub-goal.
     pub w_subgoal: f64,

@@ -23,7 +23,8 @@ use crate::error::{nonnegative, positive, Result};
 use crate::world::RobotParams;
 
 /// Settings of the speed governor (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct GovernorParams {
     /// Cap the plan's speed (`false`: the plan's controls as they are).
     pub enabled: bool,

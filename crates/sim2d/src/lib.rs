@@ -22,6 +22,7 @@
 //! | [`table`] | the paper's Table I |
 //! | [`traps`] | seeded random trap maps (U, L, cube clusters, cylinder cups) for `trap-bench` |
 //! | [`batch`] | parallel runs with progress bar, logs and figures (the binaries) |
+//! | [`sweep`] | Table I and the trap benchmark as seeded tasks (the binaries and `ddpkit.experiments`) |
 //! | [`turtlebot`] | the Safe-CDDP Turtlebot experiment (Alcan and Kyrki (2022), §IV-C, Fig. 5): CDDP vs Safe-CDDP |
 //!
 //! ```no_run
@@ -46,6 +47,7 @@ pub mod registry;
 pub mod route;
 pub mod run;
 pub mod scenario;
+pub mod sweep;
 pub mod table;
 pub mod traps;
 pub mod turtlebot;

@@ -35,7 +35,8 @@ use crate::world::Scan;
 
 /// Costmap parameters (defaults: DDPEN's 200 x 200 cells of 5 cm; inflation for the 0.6 x 0.8 m
 /// robot).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PerceptionParams {
     /// Cells along each side.
     pub cells: usize,

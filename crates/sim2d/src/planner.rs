@@ -54,7 +54,8 @@ use crate::error::{nonnegative, positive, Error, Result};
 use crate::perception::Perception;
 
 /// The planner's optimisation problem (defaults: the table in the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DdpParams {
     /// Horizon `N` (knots).
     pub horizon: usize,

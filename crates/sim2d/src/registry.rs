@@ -159,6 +159,20 @@ impl serde::Serialize for PlannerKind {
     }
 }
 
+impl<'de> serde::Deserialize<'de> for PlannerKind {
+    /// A name of the registry ([`PlannerKind::parse`]); an unknown name is an error listing the
+    /// known ones.
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        Self::ALL.into_iter().find(|k| k.name() == name).ok_or_else(|| {
+            serde::de::Error::custom(format!(
+                "unknown planner {name:?}; known: {}",
+                Self::ALL.map(|k| k.name()).join(", ")
+            ))
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use std::sync::Arc;
@@ -219,6 +233,7 @@ mod tests {
                 k.name()
             );
             assert_eq!(serde_json::to_string(&k).unwrap(), format!("\"{k}\""));
+            assert_eq!(serde_json::from_str::<PlannerKind>(&format!("\"{k}\"")).unwrap(), k);
         }
         let names: Vec<&str> = PlannerKind::ALL.iter().map(|k| k.name()).collect();
         assert_eq!(names, ["ddp", "ddp-astar", "ddpen", "ddpen-oracle"]);

@@ -23,7 +23,7 @@ use crate::scenario::Scenario;
 use crate::world::{LidarParams, RobotParams, Scan, World};
 
 /// Which way the route is driven.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Direction {
     /// From the first route point to the last.
@@ -49,7 +49,8 @@ impl std::fmt::Display for Direction {
 }
 
 /// Everything a run needs besides the scenario (defaults: the DDPEN evaluation).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RunConfig {
     /// The planner.
     pub planner: PlannerKind,
@@ -145,7 +146,7 @@ impl RunConfig {
 }
 
 /// How a run ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Outcome {
     /// Reached the end of the route.
@@ -174,7 +175,7 @@ impl std::fmt::Display for Outcome {
 }
 
 /// A planned trajectory kept for figures.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PlanSnapshot {
     /// Simulated time (s).
     pub time: f64,
@@ -183,7 +184,7 @@ pub struct PlanSnapshot {
 }
 
 /// Summary statistics of a sample (ms for timings).
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Stats {
     /// Number of samples.
     pub count: usize,
@@ -217,7 +218,7 @@ impl Stats {
 }
 
 /// Wall time spent in each part of the loop (s).
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Timing {
     /// Physics and the velocity controller.
     pub physics: f64,
@@ -232,7 +233,7 @@ pub struct Timing {
 }
 
 /// Everything measured in a run.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RunResult {
     /// Scenario name.
     pub scenario: String,

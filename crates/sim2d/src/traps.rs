@@ -37,7 +37,7 @@ use crate::route::Route;
 use crate::scenario::{Obstacle, Scenario};
 
 /// The kinds of trap maps (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum TrapKind {
     /// A U of three walls.
@@ -94,7 +94,8 @@ impl std::fmt::Display for TrapKind {
 }
 
 /// Generator settings.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TrapParams {
     /// Route length (m), start to goal.
     pub route_length: f64,

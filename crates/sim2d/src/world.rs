@@ -29,7 +29,8 @@ use crate::scenario::{signed_area, Obstacle, Scenario};
 pub const CONTACT_DISTANCE: f64 = 0.005;
 
 /// The sidewalk robot and its drive (defaults: the DDPEN robot, paper §III).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RobotParams {
     /// Footprint length along the heading (m).
     pub length: f64,
@@ -109,7 +110,8 @@ impl RobotParams {
 }
 
 /// The 2D lidar (defaults: 360 beams, 8 m, 10 Hz, 1 cm range noise).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct LidarParams {
     /// Number of beams over 360 degrees.
     pub beams: usize,

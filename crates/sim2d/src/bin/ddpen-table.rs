@@ -8,19 +8,17 @@
 //! Columns as the paper's Table I: DDP and DDPEN by default; `ddpen-oracle` (A* sub-goals) and
 //! `ddp-astar` can be added with `--planner`.
 //!
-//! ```text
-//! ```
+//! The runs are the tasks of `sim2d::sweep` (`table_tasks`, aggregated by `aggregate_table`),
+//! which `python -m ddpkit.experiments ddpen-table` runs on local processes or Ray.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
 
 use clap::Parser;
-use serde_json::json;
-use sim2d::batch::{run_batch, run_seed, write_json, BatchOptions, Job};
-use sim2d::log::LogOptions;
-use sim2d::table::Table;
-use sim2d::{Direction, PlannerKind, RunConfig, Scenario};
+use sim2d::batch::{run_batch, write_json, BatchOptions};
+use sim2d::log::{check_output_dir, LogOptions};
+use sim2d::sweep::{aggregate_table, table_figures, table_tasks, TableConfig, TableTask};
+use sim2d::PlannerKind;
 
 /// Reproduce DDPEN's Table I (execution time of the 278 m route, forward and backward).
 #[derive(Debug, Parser)]
@@ -84,56 +82,30 @@ fn main() -> ExitCode {
     }
 }
 
+impl Args {
+    /// The sweep's configuration (what the results depend on).
+    fn config(&self) -> sim2d::Result<TableConfig> {
+        Ok(TableConfig {
+            scenarios: self.scenarios.clone(),
+            sets: self.sets.clone(),
+            planners: self
+                .planners
+                .iter()
+                .map(|p| PlannerKind::parse(p))
+                .collect::<sim2d::Result<Vec<_>>>()?,
+            runs: self.runs,
+            seed: self.seed,
+            options: self.planner.clone(),
+            png: !self.no_png,
+        })
+    }
+}
+
 fn run(args: Args) -> sim2d::Result<()> {
-    if args.runs == 0 {
-        return Err(sim2d::Error::invalid("runs", "must be at least 1"));
-    }
-    let planners = args
-        .planners
-        .iter()
-        .map(|p| PlannerKind::parse(p))
-        .collect::<sim2d::Result<Vec<_>>>()?;
-    let scenarios = args
-        .sets
-        .iter()
-        .map(|s| Scenario::from_file(args.scenarios.join(format!("{s}.toml"))).map(Arc::new))
-        .collect::<sim2d::Result<Vec<_>>>()?;
-    let mut base = RunConfig::default();
-    args.planner.apply(&mut base);
-    base.validate()?;
-    // Fail early (`ddpen`: naming the model) rather than in every run.
-    for p in &planners {
-        p.prepare(&base.ddp, &base.ddpen)?;
-    }
-    let mut jobs = Vec::new();
-    for scenario in &scenarios {
-        for &planner in &planners {
-            for direction in [Direction::Forward, Direction::Backward] {
-                for run in 0..args.runs {
-                    jobs.push(Job {
-                        scenario: scenario.clone(),
-                        config: RunConfig {
-                            planner,
-                            direction,
-                            seed: run_seed(args.seed, run, direction),
-                            ..base.clone()
-                        },
-                        run,
-                    });
-                }
-            }
-        }
-    }
-    println!(
-        "Table I: {} obstacle sets x {} planner(s) x 2 directions x {} runs = {} runs, horizon N = {} ({:.1} s), {} epochs per cycle",
-        scenarios.len(),
-        planners.len(),
-        args.runs,
-        jobs.len(),
-        base.ddp.horizon,
-        base.ddp.horizon as f64 * base.ddp.dt,
-        base.ddp.epochs
-    );
+    let config = args.config()?;
+    // Checks the configuration, the scenario files and the models before any run.
+    let tasks = table_tasks(&config)?;
+    println!("{}", config.header(&config.base()?));
     // Before any run: a port in use fails here.
     let live = args.live.start()?;
     if let Some(l) = &live {
@@ -145,44 +117,26 @@ fn run(args: Args) -> sim2d::Result<()> {
         log: LogOptions {
             costmap_period: args.costmap_period,
         },
-        png: !args.no_png,
+        // The figures are drawn below from the results, as `ddpkit.experiments` draws them.
+        png: false,
         progress: !args.quiet,
         threads: args.threads,
         live: live.as_ref().map(|l| l.link.clone()),
     };
-    let wall = std::time::Instant::now();
-    let results = run_batch(&jobs, &options)?;
-    let names: Vec<String> = scenarios.iter().map(|s| s.name.clone()).collect();
-    let planner_names: Vec<String> = planners.iter().map(|p| p.name().to_string()).collect();
-    let table = Table::new(&results, &names, &planner_names);
-    println!("\nTable I: execution time of the route, mean ± sd over completed runs (s); \"fail\": no run completed\n");
-    println!("{}", table.markdown());
-    let e = table.epoch_ms;
-    println!(
-        "per epoch: mean {:.3} ms, p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms over {} epochs (paper: 75 ms)",
-        e.mean, e.p50, e.p99, e.max, e.count
-    );
-    for p in &planner_names {
-        let sel: Vec<&sim2d::RunResult> = results.iter().filter(|r| &r.planner == p).collect();
-        let n: usize = sel.iter().map(|r| r.cycle_stats.count).sum();
-        let mean = sel
-            .iter()
-            .map(|r| r.cycle_stats.mean * r.cycle_stats.count as f64)
-            .sum::<f64>()
-            / n.max(1) as f64;
-        let p99 = sel.iter().map(|r| r.cycle_stats.p99).fold(0.0, f64::max);
-        println!("planning cycle of {p} (set-up incl. sub-goals + epochs): mean {mean:.3} ms, largest per-run p99 {p99:.3} ms over {n} cycles");
+    if config.png {
+        check_output_dir(&args.out)?;
     }
-    println!(
-        "real-time factor {:.0}x per core (whole loop: physics, lidar, costmap, planning); batch wall time {:.1} s",
-        table.real_time_factor,
-        wall.elapsed().as_secs_f64()
-    );
-    if options.mcap || options.png {
+    let wall = std::time::Instant::now();
+    let jobs = tasks.iter().map(TableTask::job).collect::<sim2d::Result<Vec<_>>>()?;
+    let results = run_batch(&jobs, &options)?;
+    let report = aggregate_table(&config, &results)?;
+    table_figures(&config, &tasks, &results, &args.out)?;
+    print!("{}", report.render(wall.elapsed().as_secs_f64()));
+    if options.mcap || config.png {
         println!("logs and figures in {}", args.out.display());
     }
     if let Some(path) = &args.json {
-        write_json(path, &json!({"config": base, "table": table, "runs": results}))?;
+        write_json(path, &report.json())?;
         println!("JSON in {}", path.display());
     }
     Ok(())

@@ -5,17 +5,18 @@
 //! ```text
 //! cargo run --release -p sim2d --bin trap-bench -- --maps 50 --json out/trap-bench/bench.json
 //! ```
+//!
+//! The runs are the tasks of `sim2d::sweep` (`trap_tasks`, aggregated by `aggregate_traps`), which
+//! `python -m ddpkit.experiments trap-bench` runs on local processes or Ray.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
 
 use clap::Parser;
-use serde_json::json;
-use sim2d::batch::{run_batch, run_seed, write_figures, write_json, BatchOptions, Job};
-use sim2d::run::Stats;
-use sim2d::traps::{trap_map, TrapKind, TrapParams};
-use sim2d::{Direction, PlannerKind, RunConfig, RunResult};
+use sim2d::batch::{run_batch, write_json, BatchOptions};
+use sim2d::sweep::{aggregate_traps, trap_figures, trap_tasks, TrapConfig, TrapTask};
+use sim2d::traps::TrapKind;
+use sim2d::PlannerKind;
 
 /// Success rates of DDP planners on seeded random trap maps.
 #[derive(Debug, Parser)]
@@ -76,49 +77,28 @@ fn main() -> ExitCode {
     }
 }
 
-/// One cell of the summary: a planner on a trap type.
-#[derive(Debug, Clone, serde::Serialize)]
-struct Cell {
-    trap: String,
-    planner: String,
-    maps: usize,
-    completed: usize,
-    success_rate: f64,
-    /// Runs with at least one collision.
-    runs_with_collisions: usize,
-    /// Contact onsets over all runs.
-    collisions: usize,
-    /// Mean time of the completed runs (s).
-    mean_time_s: f64,
-    /// Planning cycle (set-up incl. sub-goals + 4 epochs), mean over cycles (ms).
-    cycle_ms_mean: f64,
-    /// Largest 99th percentile of the cycle time over the runs (ms).
-    cycle_ms_p99_max: f64,
-}
-
-fn cell(trap: &str, planner: &str, runs: &[&RunResult]) -> Cell {
-    let completed = runs.iter().filter(|r| r.completed).count();
-    let times: Vec<f64> = runs.iter().filter(|r| r.completed).map(|r| r.time_s).collect();
-    let cycles: usize = runs.iter().map(|r| r.cycle_stats.count).sum();
-    Cell {
-        trap: trap.into(),
-        planner: planner.into(),
-        maps: runs.len(),
-        completed,
-        success_rate: if runs.is_empty() {
-            f64::NAN
-        } else {
-            completed as f64 / runs.len() as f64
-        },
-        runs_with_collisions: runs.iter().filter(|r| r.collisions > 0).count(),
-        collisions: runs.iter().map(|r| r.collisions).sum(),
-        mean_time_s: Stats::of(&times).mean,
-        cycle_ms_mean: runs
-            .iter()
-            .map(|r| r.cycle_stats.mean * r.cycle_stats.count as f64)
-            .sum::<f64>()
-            / cycles.max(1) as f64,
-        cycle_ms_p99_max: runs.iter().map(|r| r.cycle_stats.p99).fold(0.0, f64::max),
+impl Args {
+    /// The sweep's configuration (what the results depend on).
+    fn config(&self) -> sim2d::Result<TrapConfig> {
+        Ok(TrapConfig {
+            types: self
+                .types
+                .iter()
+                .map(|t| TrapKind::parse(t))
+                .collect::<sim2d::Result<Vec<_>>>()?,
+            maps: self.maps,
+            planners: self
+                .planners
+                .iter()
+                .map(|p| PlannerKind::parse(p))
+                .collect::<sim2d::Result<Vec<_>>>()?,
+            seed: self.seed,
+            route_length: self.route_length,
+            stall_time: self.stall_time,
+            max_time: self.max_time,
+            png: self.png,
+            options: self.planner.clone(),
+        })
     }
 }
 
@@ -126,62 +106,10 @@ fn run(args: Args) -> sim2d::Result<()> {
     if args.maps == 0 {
         return Err(sim2d::Error::invalid("maps", "must be at least 1"));
     }
-    let kinds = args
-        .types
-        .iter()
-        .map(|t| TrapKind::parse(t))
-        .collect::<sim2d::Result<Vec<_>>>()?;
-    let planners = args
-        .planners
-        .iter()
-        .map(|p| PlannerKind::parse(p))
-        .collect::<sim2d::Result<Vec<_>>>()?;
-    let params = TrapParams {
-        route_length: args.route_length,
-        ..TrapParams::default()
-    };
-    params.validate()?;
-    let mut base = RunConfig {
-        stall_time: args.stall_time,
-        max_time: args.max_time,
-        keep_plan_every: 0,
-        ..RunConfig::default()
-    };
-    args.planner.apply(&mut base);
-    base.validate()?;
-    // Fail early (`ddpen`: naming the model) rather than in every run.
-    for p in &planners {
-        p.prepare(&base.ddp, &base.ddpen)?;
-    }
-
-    let mut jobs = Vec::new();
-    for &kind in &kinds {
-        for i in 0..args.maps {
-            let scenario = Arc::new(trap_map(kind, args.seed, i, &params)?);
-            for &planner in &planners {
-                jobs.push(Job {
-                    scenario: scenario.clone(),
-                    config: RunConfig {
-                        planner,
-                        direction: Direction::Forward,
-                        seed: run_seed(args.seed, i, Direction::Forward),
-                        ..base.clone()
-                    },
-                    run: i,
-                });
-            }
-        }
-    }
-    println!(
-        "trap bench: {} type(s) x {} maps x {} planner(s) = {} runs; route {} m, stall {} s, seed {}",
-        kinds.len(),
-        args.maps,
-        planners.len(),
-        jobs.len(),
-        args.route_length,
-        args.stall_time,
-        args.seed
-    );
+    let config = args.config()?;
+    // Checks the configuration and the models before any run.
+    let tasks = trap_tasks(&config)?;
+    println!("{}", config.header());
     // Before any run: a port in use fails here.
     let live = args.live.start()?;
     if let Some(l) = &live {
@@ -197,94 +125,16 @@ fn run(args: Args) -> sim2d::Result<()> {
         ..BatchOptions::default()
     };
     let wall = std::time::Instant::now();
+    let jobs = tasks.iter().map(TrapTask::job).collect::<sim2d::Result<Vec<_>>>()?;
     let results = run_batch(&jobs, &options)?;
-
-    let mut cells = Vec::new();
-    for &kind in &kinds {
-        for &planner in &planners {
-            let runs: Vec<&RunResult> = jobs
-                .iter()
-                .zip(&results)
-                .filter(|(j, _)| {
-                    j.config.planner == planner && j.scenario.name.starts_with(&format!("{}_", kind.name()))
-                })
-                .map(|(_, r)| r)
-                .collect();
-            cells.push(cell(kind.name(), planner.name(), &runs));
-        }
-    }
-    let head: Vec<String> = planners.iter().map(|p| p.name().to_uppercase()).collect();
-    println!(
-        "\nSuccess rate (completed / maps) and runs with collisions\n\n| trap type | {} |\n|---|{}",
-        head.join(" | "),
-        "---|".repeat(head.len())
-    );
-    for (k, kind) in kinds.iter().enumerate() {
-        let row: Vec<String> = (0..planners.len())
-            .map(|p| {
-                let c = &cells[k * planners.len() + p];
-                format!(
-                    "{:.0} % ({}/{}), {} coll.",
-                    100.0 * c.success_rate,
-                    c.completed,
-                    c.maps,
-                    c.runs_with_collisions
-                )
-            })
-            .collect();
-        println!("| {} | {} |", kind.name(), row.join(" | "));
-    }
-    let all: Vec<String> = planners
-        .iter()
-        .map(|&p| {
-            let sel: Vec<&Cell> = cells.iter().filter(|c| c.planner == p.name()).collect();
-            let (done, n): (usize, usize) = sel.iter().fold((0, 0), |a, c| (a.0 + c.completed, a.1 + c.maps));
-            let coll: usize = sel.iter().map(|c| c.runs_with_collisions).sum();
-            format!("{:.0} % ({done}/{n}), {coll} coll.", 100.0 * done as f64 / n as f64)
-        })
-        .collect();
-    println!("| all | {} |", all.join(" | "));
-    println!(
-        "\nPlanning cycle (set-up incl. sub-goals + {} epochs), mean ms:",
-        base.ddp.epochs
-    );
-    for &p in &planners {
-        let sel: Vec<&Cell> = cells.iter().filter(|c| c.planner == p.name()).collect();
-        let mean = sel.iter().map(|c| c.cycle_ms_mean).sum::<f64>() / sel.len() as f64;
-        let p99 = sel.iter().map(|c| c.cycle_ms_p99_max).fold(0.0, f64::max);
-        println!("  {:<13} mean {mean:.3} ms, largest per-run p99 {p99:.3} ms", p.name());
-    }
-    println!("batch wall time {:.1} s", wall.elapsed().as_secs_f64());
-
-    if args.png > 0 {
-        let idx: Vec<usize> = (0..jobs.len()).filter(|&i| jobs[i].run < args.png).collect();
-        let sub_jobs: Vec<Job> = idx.iter().map(|&i| jobs[i].clone()).collect();
-        let sub_results: Vec<RunResult> = idx.iter().map(|&i| results[i].clone()).collect();
-        let written = write_figures(&args.out, &sub_jobs, &sub_results)?;
+    let report = aggregate_traps(&config, &results)?;
+    print!("{}", report.render(wall.elapsed().as_secs_f64()));
+    if config.png > 0 {
+        let written = trap_figures(&config, &tasks, &results, &args.out)?;
         println!("{} PNG top views in {}", written.len(), args.out.display());
     }
     if let Some(path) = &args.json {
-        let runs: Vec<serde_json::Value> = jobs
-            .iter()
-            .zip(&results)
-            .map(|(j, r)| {
-                json!({
-                    "map": j.scenario.name, "map_index": j.run, "planner": r.planner, "outcome": r.outcome,
-                    "completed": r.completed, "time_s": r.time_s, "progress_m": r.progress_m,
-                    "route_length_m": r.route_length_m, "collisions": r.collisions,
-                    "contact_time_s": r.contact_time_s, "final_pose": r.final_pose,
-                    "epoch_stats": r.epoch_stats, "cycle_stats": r.cycle_stats,
-                    "real_time_factor": r.real_time_factor,
-                })
-            })
-            .collect();
-        write_json(
-            path,
-            &json!({
-                "seed": args.seed, "maps_per_type": args.maps, "trap_params": params, "config": base,
-                "types": kinds, "planners": planners, "summary": cells, "runs": runs,
-            }),
-        )?;
+        write_json(path, &report.json())?;
         println!("JSON in {}", path.display());
     }
     Ok(())

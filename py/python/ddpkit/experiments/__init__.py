@@ -25,6 +25,8 @@ reported with its specification and the others go on; the summary counts the fai
 |---|---|---|
 | ``safe-table`` | ``safe-cddp-table`` | one MPC episode of Table I (robot, method, episode) |
 | ``subgoal-dataset`` | ``subgoal-dataset`` | one shard (written by the task into the output directory) |
+| ``ddpen-table`` | ``ddpen-table`` | one run of DDPEN's Table I (obstacle set, planner, direction, seed; no MCAP log) |
+| ``trap-bench`` | ``trap-bench`` | one run of the randomised trap benchmark (seeded map, planner; no MCAP log) |
 """
 
 from __future__ import annotations
@@ -94,6 +96,8 @@ EXPERIMENTS: dict[str, Experiment] = {
             writes_files=True,
         ),
         Experiment("idnp", "idnp-experiment", "IDNP experiment (Richter et al. 2023): one task per initial condition, every method"),
+        Experiment("ddpen-table", "ddpen-table", "DDPEN Table I (Gamayunov et al. 2023): one task per run (set, planner, direction)"),
+        Experiment("trap-bench", "trap-bench", "Randomised trap benchmark of the DDP planners: one task per run (seeded map, planner)"),
     ]
 }
 

@@ -5,6 +5,8 @@ Examples::
     python -m ddpkit.experiments safe-table --episodes 100 --seed 1 --out out/table
     python -m ddpkit.experiments safe-table --executor processes --workers 8 --out out/table
     python -m ddpkit.experiments safe-table --executor ray --address auto --episodes 1000 --out out/table
+    python -m ddpkit.experiments ddpen-table --executor processes --runs 5 --scenarios scenarios --out out/ddpen-table
+    python -m ddpkit.experiments trap-bench --executor processes --maps 50 --out out/trap-bench
 
 Rerunning the same command resumes: finished tasks are read from ``OUT/tasks`` and not run again.
 Exit status: 0 when every task finished and the outputs were written, 1 when some task failed
@@ -16,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from typing import Any, Callable, Optional
 
@@ -50,7 +53,33 @@ OPTIONS: dict[str, list[tuple[str, str, Callable[[str], Any], str]]] = {
         ("--iterations", "iterations", int, "iterations of the IDNP loop per case (default 15)"),
         ("--optimizer-iterations", "optimizer_iterations", int, "iterations of the NLP alone (default 400)"),
     ],
+    "ddpen-table": [
+        ("--scenarios", "scenarios", os.path.abspath, "folder with the scenario files (default ./scenarios)"),
+        ("--sets", "sets", _names, "comma-separated obstacle sets (default free,cylinders,cubes_without_minima,cubes_with_minima)"),
+        ("--planners", "planners", _names, "comma-separated planners: ddp, ddp-astar, ddpen, ddpen-oracle (default ddp,ddpen)"),
+        ("--runs", "runs", int, "runs per set, planner and direction (default 5)"),
+    ],
+    "trap-bench": [
+        ("--types", "types", _names, "comma-separated trap types: u, l, cubes, cylinders (default all)"),
+        ("--maps", "maps", int, "maps per trap type (default 50)"),
+        ("--planners", "planners", _names, "comma-separated planners (default ddp,ddp-astar,ddpen,ddpen-oracle)"),
+        ("--route-length", "route_length", float, "route length of every map in m (default 22)"),
+        ("--stall-time", "stall_time", float, "a run fails after this many simulated seconds without progress (default 30)"),
+        ("--max-time", "max_time", float, "a run is stopped after this much simulated time in s (default 120)"),
+        ("--png", "png", int, "draw a PNG of the first this many maps of each type (default 2)"),
+    ],
 }
+
+#: The planner options of the sim2d binaries (`sim2d::cli::PlannerArgs`), for both of them.
+_PLANNER_OPTIONS: list[tuple[str, str, Callable[[str], Any], str]] = [
+    ("--horizon", "options.horizon", int, "planner horizon N (knots of 0.1 s)"),
+    ("--model", "options.model", os.path.abspath, "sub-goal model weights for ddpen (default: the shipped model)"),
+    ("--w-subgoal", "options.w_subgoal", float, "weight w_s of each sub-goal's distance (eq. 9)"),
+    ("--subgoal-every", "options.subgoal_every", int, "new sub-goals every this many planning cycles"),
+    ("--w-contact", "options.w_contact", float, "weight of the quadratic contact wall (0: the paper's cost alone)"),
+]
+OPTIONS["ddpen-table"] += _PLANNER_OPTIONS
+OPTIONS["trap-bench"] += _PLANNER_OPTIONS
 
 #: Boolean switches: (flag, field, value when given, help).
 SWITCHES: dict[str, list[tuple[str, str, bool, str]]] = {
@@ -59,6 +88,11 @@ SWITCHES: dict[str, list[tuple[str, str, bool, str]]] = {
         ("--uniform", "uniform", True, "also run fixed-grid IDNP on the uniform grid that resolves the passage"),
         ("--no-max-level-penalty", "no_max_level_penalty", True, "pure Algorithm 1: no penalty adaptation at the deepest level"),
     ],
+    "ddpen-table": [
+        ("--no-png", "png", False, "draw no PNG figures"),
+        ("--no-governor", "options.no_governor", True, "send the plans' speeds without the braking-distance cap"),
+    ],
+    "trap-bench": [("--no-governor", "options.no_governor", True, "send the plans' speeds without the braking-distance cap")],
 }
 
 

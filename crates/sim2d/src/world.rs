@@ -29,7 +29,8 @@ use crate::scenario::{signed_area, Obstacle, Scenario};
 pub const CONTACT_DISTANCE: f64 = 0.005;
 
 /// The sidewalk robot and its drive (defaults: the DDPEN robot, paper §III).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RobotParams {
     /// Footprint length along the heading (m).
     pub length: f64,

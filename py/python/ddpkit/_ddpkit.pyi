@@ -1828,8 +1828,9 @@ def subgoal_sample(
 def experiment_names() -> list[str]:
     """The experiment names ``experiment_tasks`` and friends accept: ``"safe-table"`` (Table I of
     Alcan and Kyrki 2022, a task per episode), ``"subgoal-dataset"`` (the DDPEN sub-goal dataset
-    of Gamayunov et al. 2023, a task per shard) and ``"idnp"`` (the IDNP experiment of Richter et
-    al. 2023, a task per initial condition)."""
+    of Gamayunov et al. 2023, a task per shard), ``"idnp"`` (the IDNP experiment of Richter et
+    al. 2023, a task per initial condition) and ``"safe-turtlebot"`` (the Turtlebot experiment of
+    Alcan and Kyrki 2022, §IV-C, a task per episode of one controller)."""
 
 def experiment_tasks(name: str, config_json: str) -> list[str]:
     """The task specifications (JSON text, one per task, in the order ``experiment_aggregate``

@@ -25,6 +25,7 @@ reported with its specification and the others go on; the summary counts the fai
 |---|---|---|
 | ``safe-table`` | ``safe-cddp-table`` | one MPC episode of Table I (robot, method, episode) |
 | ``subgoal-dataset`` | ``subgoal-dataset`` | one shard (written by the task into the output directory) |
+| ``safe-turtlebot`` | ``safe-turtlebot`` | one Turtlebot episode of CDDP or Safe-CDDP (controller, episode) |
 """
 
 from __future__ import annotations
@@ -94,6 +95,11 @@ EXPERIMENTS: dict[str, Experiment] = {
             writes_files=True,
         ),
         Experiment("idnp", "idnp-experiment", "IDNP experiment (Richter et al. 2023): one task per initial condition, every method"),
+        Experiment(
+            "safe-turtlebot",
+            "safe-turtlebot",
+            "Safe-CDDP Turtlebot experiment (Alcan and Kyrki 2022, Sec. IV-C, Fig. 5): one task per episode of one controller",
+        ),
     ]
 }
 

@@ -5,6 +5,7 @@ Examples::
     python -m ddpkit.experiments safe-table --episodes 100 --seed 1 --out out/table
     python -m ddpkit.experiments safe-table --executor processes --workers 8 --out out/table
     python -m ddpkit.experiments safe-table --executor ray --address auto --episodes 1000 --out out/table
+    python -m ddpkit.experiments safe-turtlebot --executor processes --runs 100 --seed 1 --out out/turtlebot
 
 Rerunning the same command resumes: finished tasks are read from ``OUT/tasks`` and not run again.
 Exit status: 0 when every task finished and the outputs were written, 1 when some task failed
@@ -50,6 +51,14 @@ OPTIONS: dict[str, list[tuple[str, str, Callable[[str], Any], str]]] = {
         ("--iterations", "iterations", int, "iterations of the IDNP loop per case (default 15)"),
         ("--optimizer-iterations", "optimizer_iterations", int, "iterations of the NLP alone (default 400)"),
     ],
+    "safe-turtlebot": [
+        ("--runs", "runs", int, "episodes per controller (default 100)"),
+        ("--beta", "beta", float, "Safe-CDDP's satisfaction probability (default 0.8)"),
+        ("--robot", "robot", str, "waffle-pi (the paper's, default) or burger"),
+        ("--sigma-xy", "sigma_xy", float, "localisation noise on x and y (m)"),
+        ("--sigma-theta", "sigma_theta", float, "localisation noise on the heading (rad)"),
+        ("--sigma-w-xy", "sigma_w_xy", float, "process noise per step the tightening assumes on x and y (m)"),
+    ],
 }
 
 #: Boolean switches: (flag, field, value when given, help).
@@ -59,6 +68,7 @@ SWITCHES: dict[str, list[tuple[str, str, bool, str]]] = {
         ("--uniform", "uniform", True, "also run fixed-grid IDNP on the uniform grid that resolves the passage"),
         ("--no-max-level-penalty", "no_max_level_penalty", True, "pure Algorithm 1: no penalty adaptation at the deepest level"),
     ],
+    "safe-turtlebot": [("--paths", "paths", True, "include every trajectory (poses, commands) in the JSON")],
 }
 
 

@@ -25,7 +25,7 @@ cargo test -p sim2d --features live --quiet --test live
 
 echo "== the experiment binaries py/tests/test_experiments*.py compare the sweeps with"
 cargo build --release --quiet -p safe-cddp --bin safe-cddp-table -p subgoal-infer --bin subgoal-dataset -p idnp --bin idnp-experiment \
-    -p sim2d --bin ddpen-table --bin trap-bench
+    -p sim2d --bin ddpen-table --bin trap-bench --bin safe-turtlebot
 
 echo "== build the wheel and install it"
 rm -rf "$CACHE/wheels"

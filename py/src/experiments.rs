@@ -14,6 +14,7 @@
 //! | `idnp` | [`idnp::sweep`] | one initial condition of the IDNP experiment (Richter et al. 2023), every method |
 //! | `ddpen-table` | [`sim2d::sweep`] | one run of DDPEN's Table I (Gamayunov et al. 2023): set, planner, direction, seed |
 //! | `trap-bench` | [`sim2d::sweep`] | one run of the randomised trap benchmark: seeded map, planner |
+//! | `safe-turtlebot` | [`sim2d::turtlebot::sweep`] | one episode of CDDP or Safe-CDDP on the simulated Turtlebot (Alcan and Kyrki 2022, §IV-C) |
 //!
 //! Running a task releases the GIL. Every error is a `ddpkit.DdpError` naming the argument (and,
 //! inside it, the field); a panic inside a task is caught and reported as an error too, so an
@@ -26,6 +27,7 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 use crate::errors::{invalid, CoreError, CoreResult};
+use sim2d::turtlebot::sweep as turtlebot;
 use subgoal_infer::dataset::sweep as dataset;
 use subgoal_infer::dataset::DatasetError;
 
@@ -40,7 +42,14 @@ fn ds(arg: &str, e: DatasetError) -> CoreError {
 }
 
 /// The experiments, by the names the Python CLI uses.
-const NAMES: [&str; 5] = ["safe-table", "subgoal-dataset", "idnp", "ddpen-table", "trap-bench"];
+const NAMES: [&str; 6] = [
+    "safe-table",
+    "subgoal-dataset",
+    "idnp",
+    "ddpen-table",
+    "trap-bench",
+    "safe-turtlebot",
+];
 
 /// An IDNP error as a ddpkit error naming `arg.field` (or `arg` for a numerical failure).
 fn idnp_err(arg: &str, e: idnp::Error) -> CoreError {
@@ -50,7 +59,7 @@ fn idnp_err(arg: &str, e: idnp::Error) -> CoreError {
     }
 }
 
-/// A sim2d error as a ddpkit error naming `arg.field` (or `arg` for a file or run failure).
+/// A sim2d error as a ddpkit error naming `arg.field` (or `arg` for any other failure).
 fn sim_err(arg: &str, e: sim2d::Error) -> CoreError {
     match e {
         sim2d::Error::Invalid { field, reason } => invalid(format!("{arg}.{field}"), reason),
@@ -105,6 +114,11 @@ fn tasks_of(name: &str, config_json: &str) -> CoreResult<Vec<String>> {
             let tasks = sim2d::sweep::trap_tasks(&config).map_err(|e| sim_err("config_json", e))?;
             tasks.iter().map(|t| to_json("spec", t)).collect()
         }
+        "safe-turtlebot" => {
+            let config: turtlebot::TurtlebotSweepConfig = parse("config_json", config_json)?;
+            let tasks = turtlebot::tasks(&config).map_err(|e| sim_err("config_json", e))?;
+            tasks.iter().map(|t| to_json("spec", t)).collect()
+        }
         _ => Err(unknown(name)),
     }
 }
@@ -135,6 +149,11 @@ fn run_of(name: &str, spec_json: &str) -> CoreResult<String> {
             let task: sim2d::sweep::TrapTask = parse("spec_json", spec_json)?;
             let result = sim2d::sweep::run_trap_task(&task).map_err(|e| sim_err("spec_json", e))?;
             to_json("result", &result)
+        }
+        "safe-turtlebot" => {
+            let task: turtlebot::EpisodeTask = parse("spec_json", spec_json)?;
+            let run = turtlebot::run_task(&task).map_err(|e| sim_err("spec_json", e))?;
+            to_json("result", &run)
         }
         _ => Err(unknown(name)),
     }
@@ -246,6 +265,20 @@ fn aggregate_of(
                 text.push_str(&format!("{} PNG top views in {}\n", figures.len(), out_dir.display()));
             }
             text.push_str(&format!("JSON in {}\n", path.display()));
+            Ok(text)
+        }
+        "safe-turtlebot" => {
+            // The binary's `--json` and `--png` files; `seconds` is its `wall_s`.
+            let config: turtlebot::TurtlebotSweepConfig = parse("config_json", config_json)?;
+            let runs: Vec<sim2d::turtlebot::TurtlebotRun> = parse_all(results)?;
+            let e = turtlebot::aggregate(&config, &runs).map_err(|e| sim_err("results_json", e))?;
+            let json = out_dir.join("safe-turtlebot.json");
+            let png = out_dir.join("safe-turtlebot.png");
+            sim2d::batch::write_json(&json, &turtlebot::json(&config, &e, info.seconds))
+                .map_err(|e| sim_err("out_dir", e))?;
+            sim2d::turtlebot::write_figure(&png, &e).map_err(|e| sim_err("out_dir", e))?;
+            let mut text = turtlebot::report(&config, &e, info.seconds);
+            text.push_str(&format!("wrote {}\nwrote {}\n", json.display(), png.display()));
             Ok(text)
         }
         _ => Err(unknown(name)),

@@ -17,7 +17,7 @@ def binary(name: str) -> str:
     path = os.path.join(target, "release", name)
     assert os.path.isfile(path), (
         f"{path} is missing: build it with `cargo build --release -p safe-cddp --bin safe-cddp-table "
-        "-p subgoal-infer --bin subgoal-dataset -p idnp --bin idnp-experiment -p sim2d --bin ddpen-table --bin trap-bench` "
+        "-p subgoal-infer --bin subgoal-dataset -p idnp --bin idnp-experiment -p sim2d --bin ddpen-table --bin trap-bench --bin safe-turtlebot` "
         "(scripts/test.sh does)"
     )
     return path
@@ -61,6 +61,27 @@ def idnp_without_times(value: Any) -> Any:
     if isinstance(value, str):
         value = json.loads(value)
     return _strip_times(value)
+
+
+#: Fields of Turtlebot results that are measured wall times: each episode's solve times, the
+#: summaries' statistics of them and the run's wall time.
+TURTLEBOT_TIME_FIELDS = ("solve_ms", "step_solve_ms", "first_solve_ms", "wall_s")
+
+
+def turtlebot_without_times(value: Any) -> Any:
+    """A Turtlebot result (an episode, or the experiment's JSON) with its measured wall times
+    removed; everything else is a function of the seed and compared exactly."""
+    if isinstance(value, str):
+        value = json.loads(value)
+    return _strip(value, TURTLEBOT_TIME_FIELDS)
+
+
+def _strip(value: Any, fields: tuple[str, ...]) -> Any:
+    if isinstance(value, dict):
+        return {k: _strip(v, fields) for k, v in value.items() if k not in fields}
+    if isinstance(value, list):
+        return [_strip(v, fields) for v in value]
+    return value
 
 
 def _strip_times(value: Any) -> Any:

@@ -23,6 +23,7 @@ from _experiments_util import (
     sim2d_without_measured,
     table_without_run_fields,
     tree_bytes,
+    turtlebot_without_times,
 )
 
 #: A few Table I episodes: the point robot under CDDP and Safe-CDDP (beta 0.99).
@@ -308,3 +309,38 @@ def test_sim2d_bad_configuration_names_the_field_before_any_task(
         with pytest.raises(ExperimentError, match=w):
             run_sweep(name, config, out_dir=str(tmp_path), progress=False)
     assert not os.path.isdir(os.path.join(str(tmp_path), "tasks", name)), "no task ran"
+
+
+#: Two paired Turtlebot episodes (Alcan and Kyrki 2022, §IV-C): four tasks of a second or two.
+TURTLEBOT = {"runs": 2, "seed": 3}
+
+
+def test_turtlebot_episodes_on_processes_equal_sequential_and_the_binary_except_solve_times(tmp_path: Any) -> None:
+    seq = run_sweep("safe-turtlebot", TURTLEBOT, "sequential", out_dir=str(tmp_path / "seq"), progress=False)
+    par = run_sweep("safe-turtlebot", TURTLEBOT, "processes", workers=2, out_dir=str(tmp_path / "par"), progress=False)
+    assert (seq.failed, seq.total, par.failed, par.total) == (0, 4, 0, 4)
+    stripped = [turtlebot_without_times(r) for r in seq.results]
+    assert stripped == [turtlebot_without_times(r) for r in par.results]
+    assert [r["controller"]["kind"] for r in stripped] == ["cddp", "safe-cddp"] * 2
+    assert stripped[0]["seed"] == stripped[1]["seed"] != stripped[2]["seed"], "common random numbers per episode"
+    assert all(r["steps"] > 0 and r["poses"] for r in stripped)
+    run_binary("safe-turtlebot", "--runs", "2", "--seed", "3", "--json", str(tmp_path / "bin.json"), "--quiet")
+    with open(tmp_path / "bin.json") as f:
+        want = turtlebot_without_times(json.load(f))
+    for side in ("seq", "par"):
+        with open(tmp_path / side / "safe-turtlebot.json") as f:
+            assert turtlebot_without_times(json.load(f)) == want, side
+        assert (tmp_path / side / "safe-turtlebot.png").stat().st_size > 0
+    assert "Safe-CDDP keeps the wider minimum clearance in" in seq.text
+
+
+def test_turtlebot_bad_configuration_names_the_field_before_any_task(tmp_path: Any) -> None:
+    with pytest.raises(ExperimentError, match=r"config_json\.beta is invalid: must be in \(0, 1\)"):
+        run_sweep("safe-turtlebot", {"beta": 1.0}, out_dir=str(tmp_path), progress=False)
+    with pytest.raises(ExperimentError, match=r"config_json\.sigma_w_xy is invalid"):
+        run_sweep("safe-turtlebot", {"sigma_w_xy": -0.1}, out_dir=str(tmp_path), progress=False)
+    with pytest.raises(ExperimentError, match="robot is invalid: unknown robot"):
+        run_sweep("safe-turtlebot", {"robot": "roomba"}, out_dir=str(tmp_path), progress=False)
+    with pytest.raises(ExperimentError, match="unknown field `episodes`"):
+        run_sweep("safe-turtlebot", {"episodes": 2}, out_dir=str(tmp_path), progress=False)
+    assert not os.path.isdir(os.path.join(str(tmp_path), "tasks", "safe-turtlebot")), "no task ran"

@@ -23,7 +23,7 @@
 //! | [`traps`] | seeded random trap maps (U, L, cube clusters, cylinder cups) for `trap-bench` |
 //! | [`batch`] | parallel runs with progress bar, logs and figures (the binaries) |
 //! | [`sweep`] | Table I and the trap benchmark as seeded tasks (the binaries and `ddpkit.experiments`) |
-//! | [`turtlebot`] | the Safe-CDDP Turtlebot experiment (Alcan and Kyrki (2022), §IV-C, Fig. 5): CDDP vs Safe-CDDP |
+//! | [`turtlebot`] | the Safe-CDDP Turtlebot experiment (Alcan and Kyrki (2022), §IV-C, Fig. 5): CDDP vs Safe-CDDP; its episodes as tasks in [`turtlebot::sweep`] |
 //!
 //! ```no_run
 //! let scenario = sim2d::Scenario::from_file("scenarios/cylinders.toml")?;

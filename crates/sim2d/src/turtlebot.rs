@@ -53,7 +53,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 use safe_cddp::constraints::Circle;
 use safe_cddp::{Constraint, IterationOutcome, SafeCddpSolver, Settings, Status, Tightening};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{finite_each, nonnegative, positive, Error, Result};
 use crate::route::Route;
@@ -61,8 +61,11 @@ use crate::run::Stats;
 use crate::scenario::{Obstacle, Scenario};
 use crate::world::{RobotParams, World};
 
+pub mod sweep;
+
 /// A disc obstacle `(x, y, r)` of the experiment (m).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Disc {
     /// Centre.
     pub center: [f64; 2],
@@ -116,9 +119,10 @@ pub fn waffle_pi() -> RobotParams {
     }
 }
 
-/// Which Turtlebot3.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
+/// Which Turtlebot3. Written as `"burger"` or `"waffle-pi"`; read by [`Turtlebot::parse`], so a
+/// bad name is an error naming `robot`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", try_from = "String")]
 pub enum Turtlebot {
     /// Turtlebot3 Burger ([`burger`]).
     Burger,
@@ -147,9 +151,16 @@ impl Turtlebot {
     }
 }
 
+impl TryFrom<String> for Turtlebot {
+    type Error = Error;
+    fn try_from(name: String) -> Result<Self> {
+        Self::parse(&name)
+    }
+}
+
 /// The two controllers compared.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(tag = "kind", rename_all = "kebab-case")]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum Controller {
     /// Constrained DDP on the inflated discs, no tightening (`beta = 0.5`).
     Cddp,
@@ -171,7 +182,8 @@ impl Controller {
 }
 
 /// Everything the experiment needs (defaults: the paper's §IV-C setup and our noise).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TurtlebotConfig {
     /// Start pose `(x, y, theta)`.
     pub start: [f64; 3],
@@ -390,7 +402,8 @@ pub fn footprint_clearance(pose: [f64; 3], length: f64, width: f64, disc: &Disc)
 }
 
 /// One episode.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TurtlebotRun {
     /// The controller.
     pub controller: Controller,
@@ -705,7 +718,12 @@ pub struct Experiment {
 }
 
 /// Runs `runs` episodes of each controller in parallel (rayon's pool), calling `progress` after
-/// each episode (from worker threads). Deterministic for `(config, runs, seed, beta)`.
+/// each episode (from worker threads). Deterministic for `(config, runs, seed, beta)`, apart from
+/// the measured solve times.
+///
+/// The episodes are the tasks of [`sweep`]: [`sweep::episode_tasks`], each run by
+/// [`sweep::run_task`], gathered by [`sweep::experiment_of`] (what `python -m
+/// ddpkit.experiments safe-turtlebot` runs on other executors).
 pub fn run_experiment(
     config: &TurtlebotConfig,
     runs: usize,
@@ -713,40 +731,16 @@ pub fn run_experiment(
     beta: f64,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Experiment> {
-    config.validate()?;
-    if runs == 0 {
-        return Err(Error::invalid("runs", "must be at least 1"));
-    }
-    if !(beta > 0.0 && beta < 1.0) {
-        return Err(Error::invalid("beta", format!("must be in (0, 1), got {beta}")));
-    }
-    let jobs: Vec<(usize, Controller)> = (0..runs)
-        .flat_map(|i| [(i, Controller::Cddp), (i, Controller::SafeCddp { beta })])
-        .collect();
-    let results: Vec<TurtlebotRun> = jobs
+    let tasks = sweep::episode_tasks(config, runs, seed, beta)?;
+    let results: Vec<TurtlebotRun> = tasks
         .par_iter()
-        .map(|&(i, c)| {
-            let r = run_episode(config, c, episode_seed(seed, i));
+        .map(|t| {
+            let r = sweep::run_task(t);
             progress();
             r
         })
         .collect::<Result<_>>()?;
-    let (cddp, safe): (Vec<_>, Vec<_>) = results.into_iter().partition(|r| r.controller == Controller::Cddp);
-    let safe_wider = cddp
-        .iter()
-        .zip(&safe)
-        .filter(|(a, b)| b.min_clearance > a.min_clearance)
-        .count();
-    Ok(Experiment {
-        config: config.clone(),
-        seed,
-        beta,
-        cddp_summary: Summary::of(Controller::Cddp, &cddp),
-        safe_summary: Summary::of(Controller::SafeCddp { beta }, &safe),
-        cddp,
-        safe,
-        safe_wider,
-    })
+    sweep::experiment_of(config, runs, seed, beta, &results)
 }
 
 /// Counts of `values` in `bins` equal bins over `[lo, hi)` (values outside go to the end bins).

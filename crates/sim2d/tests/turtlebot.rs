@@ -1,10 +1,13 @@
 //! The Safe-CDDP Turtlebot experiment (Alcan and Kyrki (2022), §IV-C): geometry of the clearance,
-//! the constraint inflation, determinism per seed, and Safe-CDDP against CDDP over a few episodes.
+//! the constraint inflation, determinism per seed, Safe-CDDP against CDDP over a few episodes, and
+//! the episodes as tasks (`sim2d::turtlebot::sweep`) giving the experiment of `run_experiment`.
 
 use safe_cddp::Constraint;
+use sim2d::run::Stats;
+use sim2d::turtlebot::sweep::{self, EpisodeTask, TurtlebotSweepConfig};
 use sim2d::turtlebot::{
     episode_seed, experiment_json, footprint_clearance, histogram, run_episode, run_experiment, waffle_pi, Controller,
-    Disc, Turtlebot, TurtlebotConfig, PAPER_DISCS,
+    Disc, Experiment, Turtlebot, TurtlebotConfig, TurtlebotRun, PAPER_DISCS,
 };
 use sim2d::Error;
 
@@ -171,4 +174,126 @@ fn histogram_counts_every_value_once() {
     // Bins [0, 0.05) and [0.05, 0.1); outside values go to the end bins, 0.05 to the upper one.
     let h = histogram(&[-1.0, 0.0, 0.049, 0.05, 0.1, 5.0], 0.0, 0.1, 2);
     assert_eq!(h, vec![3, 3]);
+}
+
+/// `e` without its measured wall times (the solve times and their statistics).
+fn without_solve_times(e: &Experiment) -> Experiment {
+    let mut e = e.clone();
+    for r in e.cddp.iter_mut().chain(e.safe.iter_mut()) {
+        r.solve_ms.clear();
+    }
+    for s in [&mut e.cddp_summary, &mut e.safe_summary] {
+        (s.step_solve_ms, s.first_solve_ms) = (Stats::default(), Stats::default());
+    }
+    e
+}
+
+/// The JSON `v` without the measured fields (`solve_ms`, `step_solve_ms`, `first_solve_ms`, `wall_s`).
+fn json_without_times(v: &serde_json::Value) -> serde_json::Value {
+    match v {
+        serde_json::Value::Object(m) => m
+            .iter()
+            .filter(|(k, _)| !["solve_ms", "step_solve_ms", "first_solve_ms", "wall_s"].contains(&k.as_str()))
+            .map(|(k, v)| (k.clone(), json_without_times(v)))
+            .collect(),
+        serde_json::Value::Array(a) => a.iter().map(json_without_times).collect(),
+        other => other.clone(),
+    }
+}
+
+#[test]
+fn sweep_tasks_through_json_equal_run_experiment_apart_from_solve_times() {
+    let config = TurtlebotSweepConfig {
+        runs: 2,
+        seed: 7,
+        ..TurtlebotSweepConfig::default()
+    };
+    let specs = sweep::tasks(&config).unwrap();
+    assert_eq!(specs.len(), 4);
+    assert_eq!(specs[0].seed, specs[1].seed, "common random numbers per episode");
+    assert_eq!(specs[2].seed, episode_seed(7, 1));
+    // Every task and run through JSON, as on another executor.
+    let runs: Vec<TurtlebotRun> = specs
+        .iter()
+        .map(|t| {
+            let t: EpisodeTask = serde_json::from_str(&serde_json::to_string(t).unwrap()).unwrap();
+            let r = sweep::run_task(&t).unwrap();
+            serde_json::from_str(&serde_json::to_string(&r).unwrap()).unwrap()
+        })
+        .collect();
+    let swept = sweep::aggregate(&config, &runs).unwrap();
+    let whole = run_experiment(&config.turtlebot().unwrap(), 2, 7, 0.8, &|| {}).unwrap();
+    assert_eq!(without_solve_times(&swept), without_solve_times(&whole));
+    for r in swept.cddp.iter().chain(&swept.safe) {
+        assert_eq!(r.solve_ms.len(), r.steps, "the first solve, then one per later step");
+    }
+    let (a, b) = (sweep::json(&config, &swept, 1.0), sweep::json(&config, &whole, 2.0));
+    assert_eq!(a["wall_s"], 1.0);
+    assert_eq!(json_without_times(&a), json_without_times(&b));
+    assert_eq!(
+        json_without_times(&a),
+        json_without_times(&experiment_json(&whole, false))
+    );
+    assert!(sweep::report(&config, &swept, 1.0).contains("paired episodes; 1.0 s wall."));
+    // Results out of task order are refused, naming the first misplaced one.
+    let mut swapped = runs.clone();
+    swapped.swap(0, 1);
+    let e = sweep::aggregate(&config, &swapped).unwrap_err().to_string();
+    assert!(e.contains("results[0]"), "{e}");
+    let e = sweep::aggregate(&config, &runs[..3]).unwrap_err().to_string();
+    assert!(e.contains("results") && e.contains("4 tasks, got 3"), "{e}");
+}
+
+#[test]
+fn bad_sweep_configurations_name_the_field() {
+    let bad = |c: TurtlebotSweepConfig, field: &str| {
+        let e = sweep::tasks(&c).unwrap_err();
+        assert!(matches!(e, Error::Invalid { .. }), "{e}");
+        assert!(e.to_string().starts_with(field), "{e} should name {field}");
+    };
+    let d = TurtlebotSweepConfig::default;
+    bad(TurtlebotSweepConfig { runs: 0, ..d() }, "runs");
+    bad(TurtlebotSweepConfig { beta: 1.0, ..d() }, "beta");
+    bad(TurtlebotSweepConfig { beta: f64::NAN, ..d() }, "beta");
+    bad(
+        TurtlebotSweepConfig {
+            sigma_xy: Some(-0.1),
+            ..d()
+        },
+        "sigma_xy",
+    );
+    bad(
+        TurtlebotSweepConfig {
+            sigma_theta: Some(f64::INFINITY),
+            ..d()
+        },
+        "sigma_theta",
+    );
+    bad(
+        TurtlebotSweepConfig {
+            sigma_w_xy: Some(-1.0),
+            ..d()
+        },
+        "sigma_w_xy",
+    );
+    // JSON: `{}` is the binary's default; names are read like `--robot`; unknown fields are named.
+    let parse = serde_json::from_str::<TurtlebotSweepConfig>;
+    assert_eq!(parse("{}").unwrap(), d());
+    assert_eq!(parse(r#"{"robot": "burger"}"#).unwrap().robot, Turtlebot::Burger);
+    assert_eq!(parse(r#"{"robot": "waffle"}"#).unwrap().robot, Turtlebot::WafflePi);
+    let e = parse(r#"{"robot": "roomba"}"#).unwrap_err().to_string();
+    assert!(e.contains("robot is invalid"), "{e}");
+    let e = parse(r#"{"episodes": 3}"#).unwrap_err().to_string();
+    assert!(e.contains("unknown field `episodes`"), "{e}");
+    // A task is refused whole: an unknown field, or a bad configuration when it runs.
+    let task = sweep::tasks(&TurtlebotSweepConfig { runs: 1, ..d() })
+        .unwrap()
+        .remove(1);
+    let mut v = serde_json::to_value(&task).unwrap();
+    v["config"]["horizon"] = 0.into();
+    let t: EpisodeTask = serde_json::from_value(v.clone()).unwrap();
+    assert!(sweep::run_task(&t).unwrap_err().to_string().contains("horizon"));
+    v["config"]["horizn"] = 90.into();
+    let e = serde_json::from_value::<EpisodeTask>(v).unwrap_err().to_string();
+    assert!(e.contains("horizn"), "{e}");
 }

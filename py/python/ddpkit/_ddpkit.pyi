@@ -1830,7 +1830,9 @@ def experiment_names() -> list[str]:
     Alcan and Kyrki 2022, a task per episode), ``"subgoal-dataset"`` (the DDPEN sub-goal dataset
     of Gamayunov et al. 2023, a task per shard), ``"idnp"`` (the IDNP experiment of Richter et
     al. 2023, a task per initial condition), ``"ddpen-table"`` and ``"trap-bench"`` (DDPEN's
-    Table I and the randomised trap benchmark, a task per simulated run)."""
+    Table I and the randomised trap benchmark, a task per simulated run) and ``"safe-turtlebot"``
+    (the Turtlebot experiment of Alcan and Kyrki 2022, §IV-C, a task per episode of one
+    controller)."""
 
 def experiment_tasks(name: str, config_json: str) -> list[str]:
     """The task specifications (JSON text, one per task, in the order ``experiment_aggregate``

@@ -10,13 +10,17 @@
 //! Prints the table (goal reached, collisions, minimum clearance to the closest obstacle, solve
 //! times); `--json` writes every figure (and `--paths` every trajectory), `--png` the figure:
 //! (a) the driven paths, (b) the histograms of the minimum clearance (Fig. 5c).
+//!
+//! The episodes are the tasks of [`sim2d::turtlebot::sweep`] (the functions `python -m
+//! ddpkit.experiments safe-turtlebot` runs on other executors), run here on rayon's pool.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
-use sim2d::turtlebot::{experiment_json, run_experiment, write_figure, Summary, Turtlebot, TurtlebotConfig};
+use sim2d::turtlebot::sweep::{self, TurtlebotSweepConfig};
+use sim2d::turtlebot::{run_experiment, write_figure, Turtlebot};
 
 /// CDDP versus Safe-CDDP on a simulated Turtlebot3 (Alcan and Kyrki (2022), §IV-C).
 #[derive(Debug, Parser)]
@@ -70,30 +74,6 @@ fn main() -> ExitCode {
     }
 }
 
-fn row(s: &Summary) -> String {
-    let c = &s.min_clearance;
-    format!(
-        "| {} | {}/{} | {} | {} | {:.1} ± {:.1} | {:.1} | {:.1} | {:.1} | {:.1} ± {:.1} | {:.2} / {:.2} |",
-        match s.controller {
-            sim2d::turtlebot::Controller::Cddp => "CDDP".to_string(),
-            sim2d::turtlebot::Controller::SafeCddp { beta } => format!("Safe-CDDP (beta {beta})"),
-        },
-        s.reached,
-        s.runs,
-        s.collided_runs,
-        s.collisions,
-        100.0 * c.mean,
-        100.0 * c.sd,
-        100.0 * c.min,
-        100.0 * c.p10,
-        100.0 * c.p50,
-        s.time_s.mean,
-        s.time_s.sd,
-        s.step_solve_ms.mean,
-        s.step_solve_ms.max,
-    )
-}
-
 fn run(args: Args) -> sim2d::Result<()> {
     if let Some(t) = args.threads {
         rayon::ThreadPoolBuilder::new()
@@ -101,18 +81,17 @@ fn run(args: Args) -> sim2d::Result<()> {
             .build_global()
             .map_err(|e| sim2d::Error::invalid("threads", e.to_string()))?;
     }
-    let mut config = TurtlebotConfig::for_robot(Turtlebot::parse(&args.robot)?);
-    if let Some(s) = args.sigma_xy {
-        config.sigma_xy = s;
-    }
-    if let Some(s) = args.sigma_theta {
-        config.sigma_theta = s;
-    }
-    if let Some(s) = args.sigma_w_xy {
-        config.sigma_w[0] = s;
-        config.sigma_w[1] = s;
-    }
-    config.validate()?;
+    let sweep_config = TurtlebotSweepConfig {
+        runs: args.runs,
+        seed: args.seed,
+        beta: args.beta,
+        robot: Turtlebot::parse(&args.robot)?,
+        sigma_xy: args.sigma_xy,
+        sigma_theta: args.sigma_theta,
+        sigma_w_xy: args.sigma_w_xy,
+        paths: args.paths,
+    };
+    let config = sweep_config.turtlebot()?;
     let bar = if args.quiet {
         ProgressBar::hidden()
     } else {
@@ -127,24 +106,9 @@ fn run(args: Args) -> sim2d::Result<()> {
     bar.finish_and_clear();
     let wall = start.elapsed().as_secs_f64();
 
-    println!(
-        "Turtlebot3 {} in rapier2d, {} episodes per controller, seed {}, N = {}, localisation noise sigma = {} m / {} rad, Sigma_w = diag({:?})^2, inflation {:.4} m",
-        args.robot, args.runs, args.seed, config.horizon, config.sigma_xy, config.sigma_theta, config.sigma_w, config.inflation
-    );
-    println!(
-        "| controller | reached | runs with collision | collisions | min clearance mean ± sd (cm) | min (cm) | p10 (cm) | median (cm) | time (s) | solve ms/step mean / max |"
-    );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
-    println!("{}", row(&e.cddp_summary));
-    println!("{}", row(&e.safe_summary));
-    println!(
-        "Safe-CDDP keeps the wider minimum clearance in {} of {} paired episodes; {:.1} s wall.",
-        e.safe_wider, args.runs, wall
-    );
+    print!("{}", sweep::report(&sweep_config, &e, wall));
     if let Some(path) = &args.json {
-        let mut v = experiment_json(&e, args.paths);
-        v["wall_s"] = serde_json::json!(wall);
-        sim2d::batch::write_json(path, &v)?;
+        sim2d::batch::write_json(path, &sweep::json(&sweep_config, &e, wall))?;
         println!("wrote {}", path.display());
     }
     if let Some(path) = &args.png {

@@ -27,6 +27,7 @@ reported with its specification and the others go on; the summary counts the fai
 | ``subgoal-dataset`` | ``subgoal-dataset`` | one shard (written by the task into the output directory) |
 | ``ddpen-table`` | ``ddpen-table`` | one run of DDPEN's Table I (obstacle set, planner, direction, seed; no MCAP log) |
 | ``trap-bench`` | ``trap-bench`` | one run of the randomised trap benchmark (seeded map, planner; no MCAP log) |
+| ``safe-turtlebot`` | ``safe-turtlebot`` | one Turtlebot episode of CDDP or Safe-CDDP (controller, episode) |
 """
 
 from __future__ import annotations
@@ -98,6 +99,11 @@ EXPERIMENTS: dict[str, Experiment] = {
         Experiment("idnp", "idnp-experiment", "IDNP experiment (Richter et al. 2023): one task per initial condition, every method"),
         Experiment("ddpen-table", "ddpen-table", "DDPEN Table I (Gamayunov et al. 2023): one task per run (set, planner, direction)"),
         Experiment("trap-bench", "trap-bench", "Randomised trap benchmark of the DDP planners: one task per run (seeded map, planner)"),
+        Experiment(
+            "safe-turtlebot",
+            "safe-turtlebot",
+            "Safe-CDDP Turtlebot experiment (Alcan and Kyrki 2022, Sec. IV-C, Fig. 5): one task per episode of one controller",
+        ),
     ]
 }
 

@@ -7,6 +7,7 @@ Examples::
     python -m ddpkit.experiments safe-table --executor ray --address auto --episodes 1000 --out out/table
     python -m ddpkit.experiments ddpen-table --executor processes --runs 5 --scenarios scenarios --out out/ddpen-table
     python -m ddpkit.experiments trap-bench --executor processes --maps 50 --out out/trap-bench
+    python -m ddpkit.experiments safe-turtlebot --executor processes --runs 100 --seed 1 --out out/turtlebot
 
 Rerunning the same command resumes: finished tasks are read from ``OUT/tasks`` and not run again.
 Exit status: 0 when every task finished and the outputs were written, 1 when some task failed
@@ -68,6 +69,14 @@ OPTIONS: dict[str, list[tuple[str, str, Callable[[str], Any], str]]] = {
         ("--max-time", "max_time", float, "a run is stopped after this much simulated time in s (default 120)"),
         ("--png", "png", int, "draw a PNG of the first this many maps of each type (default 2)"),
     ],
+    "safe-turtlebot": [
+        ("--runs", "runs", int, "episodes per controller (default 100)"),
+        ("--beta", "beta", float, "Safe-CDDP's satisfaction probability (default 0.8)"),
+        ("--robot", "robot", str, "waffle-pi (the paper's, default) or burger"),
+        ("--sigma-xy", "sigma_xy", float, "localisation noise on x and y (m)"),
+        ("--sigma-theta", "sigma_theta", float, "localisation noise on the heading (rad)"),
+        ("--sigma-w-xy", "sigma_w_xy", float, "process noise per step the tightening assumes on x and y (m)"),
+    ],
 }
 
 #: The planner options of the sim2d binaries (`sim2d::cli::PlannerArgs`), for both of them.
@@ -93,6 +102,7 @@ SWITCHES: dict[str, list[tuple[str, str, bool, str]]] = {
         ("--no-governor", "options.no_governor", True, "send the plans' speeds without the braking-distance cap"),
     ],
     "trap-bench": [("--no-governor", "options.no_governor", True, "send the plans' speeds without the braking-distance cap")],
+    "safe-turtlebot": [("--paths", "paths", True, "include every trajectory (poses, commands) in the JSON")],
 }
 
 

@@ -697,6 +697,7 @@ where
         self.warm.prev_violation = f64::INFINITY;
         self.warm.inner = 0;
         self.warm.kkt_failed = false;
+        self.warm.handed_over = false;
         self.refresh_merit();
         self.core.reg.reset(&s.regularization);
         self.it.trust = s.trust_region;
@@ -787,7 +788,7 @@ where
             rows: &mut self.rows,
             eps: s.active_threshold,
             first_row,
-            keep_positive: !self.warm.active,
+            keep_positive: !self.warm.active && self.warm.handed_over,
             hessian: s.constraint_hessian && !self.warm.active,
         };
         self.core.backward(problem, &mut gains, opts)
@@ -916,6 +917,9 @@ where
         self.core.traj.accept_trial();
         self.core.cost = cost;
         self.it.merit = merit;
+        if !self.warm.active {
+            self.warm.handed_over = false;
+        }
         // The line search evaluated the rows along this trajectory as the trial.
         self.it.violation_max = violation_max;
         self.it.need_linearize = true;

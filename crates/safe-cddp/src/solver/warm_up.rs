@@ -51,6 +51,9 @@ pub(crate) struct WarmUpState {
     /// A KKT/QP iteration of this solve failed and the warm-up took over: it then runs to its own
     /// convergence instead of handing over again.
     pub kkt_failed: bool,
+    /// The warm-up has just handed over and no KKT/QP step has been accepted since: the first
+    /// backward passes keep every row with a positive multiplier in the active set.
+    pub handed_over: bool,
     /// No solve has reached the KKT/QP iterations since construction or a reset: the next start
     /// runs the warm-up even from a feasible guess (which may be far from optimal).
     pub cold: bool,
@@ -70,6 +73,7 @@ impl WarmUpState {
             prev_violation: f64::INFINITY,
             inner: 0,
             kkt_failed: false,
+            handed_over: false,
             cold: true,
         }
     }
@@ -148,6 +152,7 @@ where
         w.active = false;
         w.barrier = false;
         w.cold = false;
+        w.handed_over = true;
         self.rows.lambda.copy_from_slice(&w.lambda);
         self.core.reg.reset(&self.settings.regularization);
     }

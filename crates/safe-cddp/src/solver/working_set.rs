@@ -2,10 +2,10 @@
 //! (2017), eqs. (10)-(12), plugged into the one DDP backward pass of `ddp-core` as its
 //! [`Gains`] (the way Crocoddyl's BoxDDP overrides only `computeGains`).
 //!
-//! At knot `k`, rows with `g~ > -epsilon` form the active set, and so do rows whose multiplier
-//! from the previous backward pass (or the warm-up's hand-over) is positive: a row that the
-//! augmented Lagrangian leaves a little inside its boundary (further than `epsilon`) would
-//! otherwise drop out, and the first KKT step would run through it. A working set of at most
+//! At knot `k`, rows with `g~ > -epsilon` form the active set; right after the warm-up hands
+//! over (until the first KKT/QP step is accepted), so do rows whose multiplier is positive: a row
+//! that the augmented Lagrangian leaves a little inside its boundary (further than `epsilon`)
+//! would otherwise drop out, and the first KKT step would run through it. A working set of at most
 //! `nu` rows independent in the `Q_uu^{-1}` metric is taken greedily (most active first); rows
 //! with negative multipliers are pruned one at a time:
 //!
@@ -97,8 +97,8 @@ where
     /// First row of a knot that may enter the working set (the warm-up keeps only the control
     /// bounds there: its constraint rows are in the cost).
     pub first_row: usize,
-    /// Rows with a positive multiplier `rows.lambda` are active whatever their `g~` (the KKT/QP
-    /// iterations; the warm-up's working set holds only control bounds).
+    /// Rows with a positive multiplier `rows.lambda` are active whatever their `g~` (the first
+    /// KKT/QP iteration after the warm-up's hand-over).
     pub keep_positive: bool,
     /// Add the constraint curvature `h_con` to `Q_xx`.
     pub hessian: bool,

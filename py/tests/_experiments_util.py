@@ -114,12 +114,4 @@ def sim2d_without_measured(value: Any) -> Any:
     of the seed and compared exactly."""
     if isinstance(value, str):
         value = json.loads(value)
-    return _strip_sim2d(value)
-
-
-def _strip_sim2d(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _strip_sim2d(v) for k, v in value.items() if k not in SIM2D_MEASURED_FIELDS}
-    if isinstance(value, list):
-        return [_strip_sim2d(v) for v in value]
-    return value
+    return _strip(value, SIM2D_MEASURED_FIELDS)

@@ -224,6 +224,16 @@ where
     ) -> Result<usize, NotPositiveDefinite> {
         let w = &mut *self.kkt;
         let nu = w.rows_w.len();
+        if mw == 0 {
+            // No working row (most knots): (10)-(12) reduce to the unconstrained gains
+            // d = -Q_uu^-1 Q_u, K = -Q_uu^-1 Q_ux, lambda = 0.
+            w.lambda.fill(0.0);
+            copy(k_ff, &w.qi_qu);
+            k_ff.neg_mut();
+            copy(k_fb, &w.qi_qux);
+            k_fb.neg_mut();
+            return Ok(0);
+        }
         loop {
             // S = C_W Q_uu^-1 C_W^T, the identity beyond the working set.
             w.s.gemm(1.0, &w.cw, &w.hw, 0.0);

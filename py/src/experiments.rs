@@ -212,13 +212,8 @@ fn aggregate_of(
             let shards: Vec<dataset::ShardResult> = parse_all(results)?;
             let s = dataset::aggregate(&config, &shards).map_err(|e| ds("results_json", e))?;
             Ok(format!(
-                "{} samples in {} shards -> {} ({:.2} s, {:.0} samples/s, workers: {})\n",
-                s.samples,
-                s.shards.len(),
-                s.dir.display(),
-                info.seconds,
-                s.samples as f64 / info.seconds.max(1e-9),
-                info.workers,
+                "{}\n",
+                s.line(info.seconds, &format!("workers: {}", info.workers))
             ))
         }
         "idnp" => {

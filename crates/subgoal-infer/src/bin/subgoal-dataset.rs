@@ -67,15 +67,8 @@ fn main() -> ExitCode {
     bar.finish_and_clear();
     match result {
         Ok(s) => {
-            println!(
-                "{} samples in {} shards -> {} ({:.2} s, {:.0} samples/s, threads: {})",
-                s.samples,
-                s.shards.len(),
-                s.dir.display(),
-                s.seconds,
-                s.samples as f64 / s.seconds.max(1e-9),
-                args.threads.map_or_else(|| "all".to_string(), |t| t.to_string()),
-            );
+            let threads = args.threads.map_or_else(|| "all".to_string(), |t| t.to_string());
+            println!("{}", s.line(s.seconds, &format!("threads: {threads}")));
             ExitCode::SUCCESS
         }
         Err(e) => {

@@ -172,6 +172,21 @@ pub struct DatasetSummary {
     pub seconds: f64,
 }
 
+impl DatasetSummary {
+    /// The line the dataset binary and `ddpkit.experiments` print: samples, shards, directory,
+    /// wall time `seconds` (the summary's own, or a sweep's), throughput and `workers` (the
+    /// thread or worker count as it should read).
+    pub fn line(&self, seconds: f64, workers: &str) -> String {
+        format!(
+            "{} samples in {} shards -> {} ({seconds:.2} s, {:.0} samples/s, {workers})",
+            self.samples,
+            self.shards.len(),
+            self.dir.display(),
+            self.samples as f64 / seconds.max(1e-9),
+        )
+    }
+}
+
 /// The parsed `manifest.json` of a dataset directory.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Manifest {

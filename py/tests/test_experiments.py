@@ -344,3 +344,18 @@ def test_turtlebot_bad_configuration_names_the_field_before_any_task(tmp_path: A
     with pytest.raises(ExperimentError, match="unknown field `episodes`"):
         run_sweep("safe-turtlebot", {"episodes": 2}, out_dir=str(tmp_path), progress=False)
     assert not os.path.isdir(os.path.join(str(tmp_path), "tasks", "safe-turtlebot")), "no task ran"
+
+
+def test_guided_chunks_cover_every_task_once_and_end_in_single_tasks() -> None:
+    from ddpkit.experiments._executors import guided_chunks
+
+    for n, workers in [(0, 2), (1, 2), (5, 2), (336, 2), (1000, 8), (7, 64)]:
+        sizes = guided_chunks(n, workers)
+        assert sum(sizes) == n
+        assert all(1 <= s <= 32 for s in sizes)
+        # Never growing, so the last chunks are the smallest: the sweep's tail is single tasks.
+        assert sizes == sorted(sizes, reverse=True)
+        if n >= 2 * workers:
+            assert sizes[-workers:] == [1] * workers
+    # A large sweep's first chunks are capped and amortise the scheduling round trip.
+    assert guided_chunks(336, 2)[:7] == [32] * 7

@@ -53,6 +53,21 @@ def ddpkit_tasks(experiment: str, specs: Sequence[str], threads: Optional[int] =
     return [ddpkit_task(experiment, spec, threads) for spec in specs]
 
 
+def guided_chunks(n: int, workers: int, cap: int = 32) -> list[int]:
+    """Chunk sizes for ``n`` tasks on ``workers`` workers, in the order they are handed out:
+    guided self-scheduling (after Polychronopoulos and Kuck 1987): each chunk a ``1 / (2 workers)``
+    share of the tasks not yet handed out, at most ``cap``, so that the first chunks amortise
+    the scheduling round trip and the last ones are single tasks, which leaves no worker idle
+    for long while another finishes a large chunk at the end of a sweep."""
+    sizes: list[int] = []
+    left = n
+    while left > 0:
+        size = max(1, min(cap, left // (2 * workers)))
+        sizes.append(size)
+        left -= size
+    return sizes
+
+
 def _warm_worker(threads: int, hold_s: float = 0.2) -> int:
     """Starts a worker for real: sets its thread count, imports the extension, and holds the
     worker for ``hold_s`` so that the executor's other warm-up calls land on other workers.
@@ -277,10 +292,13 @@ class RayExecutor(Executor):
             self.start()
         ray = self._ray
         # Tasks go to Ray in chunks: each Ray call costs a few milliseconds of scheduling (more
-        # on a busy machine), paid once per chunk. A chunk of about a quarter of each worker's
-        # share keeps the load balanced; a lost worker's chunk is run again whole.
-        size = self.chunk or max(1, min(32, len(specs) // (4 * self._workers)))
-        chunks = [list(range(k, min(k + size, len(specs)))) for k in range(0, len(specs), size)][::-1]
+        # on a busy machine), paid once per chunk; a lost worker's chunk is run again whole.
+        sizes = [self.chunk] * -(-len(specs) // self.chunk) if self.chunk else guided_chunks(len(specs), self._workers)
+        chunks, k = [], 0
+        for size in sizes:
+            chunks.append(list(range(k, min(k + size, len(specs)))))
+            k += size
+        chunks.reverse()
         pending: dict[Any, list[int]] = {}
         # Enough queued work to keep every CPU busy (nodes may join), without putting a huge
         # sweep's specifications into the object store at once.

@@ -286,10 +286,7 @@ def ddpkit_entry(m: Model, traced: bool, warm_up: str = "portfolio") -> Entry:
 
     def solve() -> tuple[Any, np.ndarray, np.ndarray, str]:
         if con is not None:
-            # `SafeCddpSolver.solve(us0)` on a used solver keeps the last solve's multipliers and
-            # margins (a different answer from a fresh solver's: 15 iterations to cost 0.597
-            # instead of 27 to 0.119 here); `reset()` makes every timed solve a cold one.
-            solver.reset()
+            # Without `warm_start` every solve is a cold one, the same as a fresh solver's.
             s = solver.solve(us0)
             return f"{s.iterations} + {s.discarded_iterations}", s.xs, s.us, s.status
         s = solver.solve(us0)

@@ -1004,10 +1004,13 @@ where
 {
     let s = <Dispatch as SafePair<NX, NU>>::solver(s).ok_or_else(|| internal_mismatch("solver"))?;
     let p = problem_of::<NX, NU>(p)?;
-    match us0 {
-        Some(us) => s.set_controls(&controls(us, "us0", s.horizon(), p.dims().nu)?)?,
-        None if !warm_start => s.reset(),
-        None => {}
+    // `warm_start` decides whether the last solve's state (multipliers, margins,
+    // regularisation) carries over; `us0` only replaces the controls.
+    if !warm_start {
+        s.reset();
+    }
+    if let Some(us) = us0 {
+        s.set_controls(&controls(us, "us0", s.horizon(), p.dims().nu)?)?;
     }
     s.solve(p)?;
     Ok(out_of(s))
@@ -1132,7 +1135,10 @@ impl SafeCddpSolver {
     /// Solves and returns a :class:`SafeSolution`; the GIL is released meanwhile.
     ///
     /// The initial guess is ``us0`` if given (shape ``(n, nu)`` for the active horizon ``n``),
-    /// else the controls of the last solve when ``warm_start`` is true, else zeros.
+    /// else the controls of the last solve when ``warm_start`` is true, else zeros. Without
+    /// ``warm_start`` every solve is a cold start (as after :meth:`reset`), ``us0`` or not; with
+    /// it the multipliers and margins of the last solve carry over (a receding-horizon warm
+    /// start, ``us0`` then replacing only the controls).
     #[pyo3(signature = (us0 = None, warm_start = false))]
     fn solve(&mut self, py: Python<'_>, us0: Option<&Bound<'_, PyAny>>, warm_start: bool) -> PyResult<SafeSolution> {
         let us0 = match us0 {

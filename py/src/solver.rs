@@ -74,10 +74,13 @@ where
 {
     let s = solver_mut_of::<NX, NU>(s)?;
     let p = problem_of::<NX, NU>(p)?;
-    match us0 {
-        Some(us) => s.set_controls(&controls(us, "us0", s.horizon(), s.dims().nu)?)?,
-        None if !warm_start => s.reset(),
-        None => {}
+    // `warm_start` decides whether the last solve's state (multipliers, margins,
+    // regularisation) carries over; `us0` only replaces the controls.
+    if !warm_start {
+        s.reset();
+    }
+    if let Some(us) = us0 {
+        s.set_controls(&controls(us, "us0", s.horizon(), s.dims().nu)?)?;
     }
     let report = s.solve(p)?;
     let (status, iterations, cost, initial_cost, gradient, mu, bp, fp, time) = (
@@ -410,7 +413,8 @@ impl Solver {
     /// Solves the problem and returns the `Solution`.
     ///
     /// The initial guess: `us0` if given (shape `(N, nu)`); otherwise the controls of the last
-    /// solve when `warm_start` is true, or zeros (a cold start). The GIL is released meanwhile.
+    /// solve when `warm_start` is true, or zeros. Without `warm_start` every solve is a cold
+    /// start (as after `reset()`), `us0` or not. The GIL is released meanwhile.
     #[pyo3(signature = (us0 = None, warm_start = false))]
     fn solve(&mut self, py: Python<'_>, us0: Option<&Bound<'_, PyAny>>, warm_start: bool) -> PyResult<Solution> {
         let us0 = match us0 {

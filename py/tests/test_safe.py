@@ -170,6 +170,23 @@ def test_receding_horizon_api() -> None:
     assert solver.solve().cost == pytest.approx(first.cost, rel=1e-9)
 
 
+def test_a_reused_solver_given_us0_starts_cold_unless_told_to_warm_start() -> None:
+    us0 = np.full((100, 2), 0.1)
+    fresh = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles()).solve(us0=us0)
+    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles())
+    first = solver.solve()
+    # The last solve's multipliers and margins do not leak into a solve from a given guess.
+    again = solver.solve(us0=us0)
+    assert (again.iterations, again.discarded_iterations) == (fresh.iterations, fresh.discarded_iterations)
+    np.testing.assert_array_equal(again.us, fresh.us)
+    # With warm_start they do: from the last optimum with its multipliers nothing is left to do.
+    solver.solve()
+    warm = solver.solve(us0=first.us, warm_start=True)
+    assert warm.converged and warm.discarded_iterations == 0
+    assert warm.iterations < first.iterations
+    assert warm.cost == pytest.approx(first.cost, rel=1e-9)
+
+
 def test_mpc_episode_is_deterministic_and_safe_cddp_avoids_collisions() -> None:
     sigma_w = np.diag([9e-6, 9e-6, 3.6e-5, 3.6e-5])
     goal = [3.0, 3.0, 0.0, 0.0]

@@ -602,8 +602,9 @@ class Solver:
         """Solves the problem.
 
         The initial guess is ``us0`` if given (shape ``(N, nu)``), else the controls of the last
-        solve when ``warm_start`` is true, else zeros (a cold start). Bad input raises; the
-        outcome of the algorithm is :attr:`Solution.status`.
+        solve when ``warm_start`` is true, else zeros. Without ``warm_start`` every solve is a
+        cold start (as after :meth:`reset`), ``us0`` or not. Bad input raises; the outcome of the
+        algorithm is :attr:`Solution.status`.
         """
     def shift(self) -> None:
         """Receding horizon: drops the first knot of the last solution and repeats the last
@@ -1353,7 +1354,9 @@ class SafeCddpSolver:
     def __getnewargs_ex__(self) -> tuple[tuple[Any, ...], dict[str, Any]]:
         """Pickles as its problem, constraints, tightening and settings (a fresh workspace)."""
     def solve(self, us0: Optional[_ArrayLike] = None, warm_start: bool = False) -> SafeSolution:
-        """Solves from ``us0`` (shape ``(n, nu)``), the last controls (``warm_start``) or zeros."""
+        """Solves from ``us0`` (shape ``(n, nu)``), the last controls (``warm_start``) or zeros.
+        Without ``warm_start`` a cold start (as after :meth:`reset`), ``us0`` or not; with it the
+        last solve's multipliers and margins carry over, ``us0`` replacing only the controls."""
     def tighten(self) -> float:
         """Tightens at the current trajectory (eqs. 19-20); returns the largest margin change."""
     def shift(self) -> None:

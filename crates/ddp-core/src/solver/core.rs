@@ -117,9 +117,10 @@ where
     }
 
     /// [`Linearization::compute`] with the knots split over `threads` (contiguous chunks, one
-    /// per thread, the terminal cost on the calling thread). Each knot's derivatives are
-    /// computed by the same code as in the sequential pass and written to the same place, so the
-    /// result is bit-identical to [`Linearization::compute`] for any thread count.
+    /// per thread; the calling thread takes the first chunk and the terminal cost, the pool's
+    /// `threads - 1` workers the others). Each knot's derivatives are computed by the same code
+    /// as in the sequential pass and written to the same place, so the result is bit-identical
+    /// to [`Linearization::compute`] for any thread count.
     pub fn compute_with(
         &mut self,
         threads: &DerivativeThreads,
@@ -131,19 +132,32 @@ where
         #[cfg(feature = "parallel")]
         if let Some(pool) = threads.pool.as_deref() {
             if n >= 2 {
-                use rayon::prelude::*;
                 let chunk = n.div_ceil(threads.threads);
                 let knots = &problem.knots()[..n];
                 let (fx, fu, l) = (&mut self.fx[..n], &mut self.fu[..n], &mut self.l[..n]);
-                pool.install(|| {
-                    fx.par_chunks_mut(chunk)
-                        .zip(fu.par_chunks_mut(chunk))
-                        .zip(l.par_chunks_mut(chunk))
-                        .enumerate()
-                        .for_each(|(c, ((fx, fu), l))| {
-                            let r = c * chunk..c * chunk + fx.len();
-                            knots_derivatives(&knots[r.clone()], &xs[r.clone()], &us[r], fx, fu, l);
-                        });
+                // The caller works too rather than blocking while `threads` workers run: a
+                // blocked caller must be woken when they finish, and afterwards they spin for
+                // more work on the cores the rest of the iteration runs on.
+                let run = |c: usize,
+                           fx: &mut [MatrixN<NX, NX>],
+                           fu: &mut [MatrixN<NX, NU>],
+                           l: &mut [CostDerivatives<NX, NU>]| {
+                    let r = c * chunk..c * chunk + fx.len();
+                    knots_derivatives(&knots[r.clone()], &xs[r.clone()], &us[r], fx, fu, l);
+                };
+                pool.in_place_scope(|scope| {
+                    let mut parts = fx
+                        .chunks_mut(chunk)
+                        .zip(fu.chunks_mut(chunk))
+                        .zip(l.chunks_mut(chunk))
+                        .enumerate();
+                    let first = parts.next();
+                    for (c, ((fx, fu), l)) in parts {
+                        scope.spawn(move |_| run(c, fx, fu, l));
+                    }
+                    if let Some((c, ((fx, fu), l))) = first {
+                        run(c, fx, fu, l);
+                    }
                 });
                 self.cost_terminal(problem, &xs[n]);
                 return;
@@ -212,8 +226,9 @@ impl Default for DerivativeThreads {
 }
 
 impl DerivativeThreads {
-    /// `threads` workers (1: none, the calling thread). Above 1 it starts a rayon pool of that
-    /// many threads (an allocation and `threads` OS threads, once); errors name
+    /// `threads` workers (1: none, the calling thread). Above 1 it starts a rayon pool of
+    /// `threads - 1` threads, the calling thread being the last (an allocation and the OS
+    /// threads, once); errors name
     /// `settings.derivative_threads` (0, too many, no `parallel` feature, or the OS refused).
     pub fn new(threads: usize) -> crate::Result<Self> {
         let probe = crate::Settings {
@@ -227,7 +242,7 @@ impl DerivativeThreads {
         #[cfg(feature = "parallel")]
         {
             let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
+                .num_threads(threads - 1)
                 .thread_name(|i| format!("ddp-derivatives-{i}"))
                 .build()
                 .map_err(|e| Error::invalid("settings.derivative_threads", format!("no thread pool: {e}")))?;

@@ -9,7 +9,7 @@
 //! ```
 //!
 //! Environment: `THIRD_MU=3e-2` adds the portfolio's third start
-//! (`Settings::portfolio_third_mu`); `AL_RHO`, `AL_INNER`, `AL_TOL` set the augmented
+//! (`Settings::portfolio_third_mu`), `POLISH=1` its polish (`Settings::portfolio_polish`); `AL_RHO`, `AL_INNER`, `AL_TOL` set the augmented
 //! Lagrangian; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print per-solve details.
 use std::time::Instant;
 
@@ -53,6 +53,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("AL_INNER") {
         s.al_cold_inner_iterations = v as usize;
+    }
+    if let Some(v) = env("POLISH") {
+        s.portfolio_polish = v != 0.0;
     }
     if let Some(v) = env("THIRD_MU") {
         s.portfolio_third_mu = Some(v);
@@ -152,11 +155,13 @@ fn solve_one(bp: &BenchmarkProblem, s: Settings) -> Result<Outcome, Box<dyn std:
             }
             if std::env::var("PHASES").is_ok() {
                 let count = |w: Option<WarmUp>| r.log.iter().filter(|l| l.warm_up == w).count();
+                let last = r.log.iter().rev().find(|l| l.accepted).map(|l| l.warm_up);
                 println!(
-                    "  phases: barrier {} al {} kkt {}",
+                    "  phases: barrier {} al {} kkt {} last {:?}",
                     count(Some(WarmUp::Barrier)),
                     count(Some(WarmUp::AugmentedLagrangian)),
-                    count(None)
+                    count(None),
+                    last
                 );
             }
             (

@@ -1,5 +1,7 @@
-//! The optional third start of `WarmUp::Portfolio` (`Settings::portfolio_third_mu`): a barrier
-//! homotopy from a stronger barrier, kept when it ends in a better optimum.
+//! The optional starts of `WarmUp::Portfolio`: the third (`Settings::portfolio_third_mu`), a
+//! barrier homotopy from a stronger barrier, and the polish (`Settings::portfolio_polish`), the
+//! KKT/QP iterations with cold multipliers from an augmented-Lagrangian solution; each kept only
+//! when it ends in a better optimum.
 
 use safe_cddp::benchmark::BenchmarkProblem;
 use safe_cddp::{SafeCddpSolver, Settings, Status, WarmUp};
@@ -77,5 +79,81 @@ fn bad_third_mu_is_rejected_by_name() {
         };
         let err = s.validate().unwrap_err().to_string();
         assert!(err.contains("portfolio_third_mu"), "{err}");
+    }
+}
+
+/// Problem 10 of the car family, seed 1: the portfolio keeps the augmented Lagrangian's own
+/// solution, 4.95e-4 above FATROP's optimum (0.41285486); the polish from there reaches it.
+const CAR_S1_I10: &str = r#"{"name": "car-s1-i10-a0", "model": "car", "dt": 0.0629, "N": 129, "x0": [0.0, 0.0, 0.1035, 0.0], "cost": {"kind": "quad_goal", "x_goal": [3.104, -0.4525, 0.3355, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "u_min": [-0.3211, -0.5879], "u_max": [0.3211, 0.5879], "obstacles": [[1.4156, 0.052, 0.2195], [0.8806, 0.1519, 0.4815]]}"#;
+const FATROP_COST: f64 = 0.4128548645118785;
+
+fn solve_json(json: &str, settings: Settings) -> safe_cddp::Report {
+    let bp = BenchmarkProblem::from_json(json).unwrap();
+    let (problem, constraints) = bp.car_or_point().unwrap();
+    let mut solver = SafeCddpSolver::new(&problem, constraints, settings).unwrap();
+    solver.solve(&problem).unwrap().clone()
+}
+
+#[test]
+fn the_polish_reaches_the_optimum_the_augmented_lagrangian_stopped_short_of() {
+    let plain = solve_json(
+        CAR_S1_I10,
+        Settings {
+            portfolio_polish: false,
+            ..Settings::default()
+        },
+    );
+    let polished = solve_json(
+        CAR_S1_I10,
+        Settings {
+            portfolio_polish: true,
+            ..Settings::default()
+        },
+    );
+    assert_eq!(polished.status, Status::Converged);
+    assert!(plain.max_violation <= 1e-6 && polished.max_violation <= 1e-6);
+    assert!(
+        plain.cost > FATROP_COST * (1.0 + 1e-4),
+        "without the polish: {}",
+        plain.cost
+    );
+    assert!(
+        polished.cost <= FATROP_COST * (1.0 + 1e-6),
+        "with the polish: {}",
+        polished.cost
+    );
+    // The polish continues the kept solution: its iterations add to the kept start's, and the
+    // discarded starts are the same.
+    assert!(polished.iterations > plain.iterations);
+    assert_eq!(polished.discarded_iterations, plain.discarded_iterations);
+}
+
+#[test]
+fn the_polish_never_ends_worse() {
+    // P2's and P3's kept solutions end in the augmented-Lagrangian warm-up (their KKT/QP step
+    // there is zero): the polish runs, and the cost can only fall.
+    for file in ["p3_point4.json", "p2_car4.json"] {
+        let json = std::fs::read_to_string(format!("../../bench/problems/{file}")).unwrap();
+        let run = |portfolio_polish| {
+            solve_json(
+                &json,
+                Settings {
+                    portfolio_polish,
+                    ..Settings::default()
+                },
+            )
+        };
+        let (plain, polished) = (run(false), run(true));
+        assert!(polished.max_violation <= 1e-6, "{file}");
+        assert!(
+            polished.cost <= plain.cost,
+            "{file}: {} > {}",
+            polished.cost,
+            plain.cost
+        );
+        assert!(
+            polished.iterations + polished.discarded_iterations > plain.iterations + plain.discarded_iterations,
+            "{file}: the polish did not run"
+        );
     }
 }

@@ -120,6 +120,8 @@ struct IterState {
     need_linearize: bool,
     started: bool,
     iteration: usize,
+    /// The last accepted step of this solve was a warm-up step.
+    accepted_in_warm_up: bool,
 }
 
 /// The Safe-CDDP solver and its workspace, for `NX` states, `NU` controls (compile-time or
@@ -168,6 +170,8 @@ where
     member: Option<WarmUp>,
     /// The barrier's initial `mu` of the start now running (`None`: the settings').
     mu_init: Option<f64>,
+    /// The kept solution's last accepted step was a warm-up step (its KKT/QP hand-over failed).
+    best_in_warm_up: bool,
 }
 
 impl<NX: Dim, NU: Dim> std::fmt::Debug for SafeCddpSolver<NX, NU>
@@ -239,6 +243,7 @@ where
                 need_linearize: true,
                 started: false,
                 iteration: 0,
+                accepted_in_warm_up: false,
             },
             report: Report::new(settings.max_iterations + 1),
             portfolio: Portfolio {
@@ -247,6 +252,7 @@ where
                 report: Report::new(settings.max_iterations + 1),
                 member: None,
                 mu_init: None,
+                best_in_warm_up: false,
             },
         })
     }
@@ -513,52 +519,79 @@ where
 
     /// [`WarmUp::Portfolio`]: solves from the initial guess with each warm-up in turn (and the
     /// barrier from [`Settings::portfolio_third_mu`], when set) and keeps the best solution (see
-    /// [`better`]).
+    /// [`better`]). When that solution is the augmented Lagrangian's own (its KKT/QP hand-over
+    /// failed), [`Settings::portfolio_polish`] adds a last start from it: the KKT/QP iterations
+    /// with cold multipliers and working sets.
     fn solve_portfolio(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
         let start = Instant::now();
         let n = self.core.n;
-        let p = &mut self.portfolio;
-        p.guess[..n].clone_from_slice(&self.core.traj.us[..n]);
-        p.member = Some(WarmUp::AugmentedLagrangian);
-        self.solve_from_start(problem)?;
-        let p = &mut self.portfolio;
-        p.best[..n].clone_from_slice(&self.core.traj.us[..n]);
-        std::mem::swap(&mut self.report, &mut p.report);
         let tol = self.settings.constraint_tolerance;
+        self.portfolio.guess[..n].clone_from_slice(&self.core.traj.us[..n]);
+        // (warm-up, barrier mu) of each start from the initial guess; `None` is the polish.
+        let guesses = [Some((WarmUp::AugmentedLagrangian, None)), Some((WarmUp::Barrier, None))];
+        let third = self
+            .settings
+            .portfolio_third_mu
+            .map(|mu| Some((WarmUp::Barrier, Some(mu))));
+        let polish = self.settings.portfolio_polish.then_some(None);
         let mut discarded = 0;
         let mut discarded_qps = crate::qp::QpStats::default();
-        let mut starts = std::iter::once(None)
-            .chain(self.settings.portfolio_third_mu.map(Some))
-            .peekable();
-        while let Some(mu) = starts.next() {
+        // Whether the portfolio's best (`portfolio.best`, `.report`) is also the solver's state.
+        let mut live_is_best = false;
+        for (i, member) in guesses.into_iter().chain(third).chain(polish).enumerate() {
             let p = &mut self.portfolio;
-            self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
-            p.member = Some(WarmUp::Barrier);
-            p.mu_init = mu;
-            self.forget();
-            self.solve_from_start(problem)?;
-            // On a tie the later start is kept.
-            let keep_new = !better(&self.portfolio.report, &self.report, tol);
-            let p = &mut self.portfolio;
-            let lost = if keep_new { &p.report } else { &self.report };
-            discarded += lost.iterations;
-            discarded_qps += lost.qp;
-            let last = starts.peek().is_none();
-            if last && !keep_new {
-                // Keep the earlier solution: its trajectory, and the gains and multipliers of a
-                // backward pass there (what its solve ended with).
-                std::mem::swap(&mut self.report, &mut p.report);
-                self.core.traj.us[..n].clone_from_slice(&p.best[..n]);
-                self.core.rollout(problem);
-                self.warm.active = false;
-                self.linearize_now(problem);
-                let _ = self.compute_direction(problem);
-                self.warm.lambda.copy_from_slice(&self.rows.lambda);
-                self.refresh_merit();
-            } else if !last && keep_new {
-                p.best[..n].clone_from_slice(&self.core.traj.us[..n]);
-                std::mem::swap(&mut self.report, &mut p.report);
+            match member {
+                Some((warm_up, mu)) => {
+                    self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
+                    p.member = Some(warm_up);
+                    p.mu_init = mu;
+                }
+                None if p.best_in_warm_up => {
+                    self.core.traj.us[..n].clone_from_slice(&p.best[..n]);
+                    p.member = Some(WarmUp::None);
+                    p.mu_init = None;
+                }
+                None => continue,
             }
+            if i > 0 {
+                self.forget();
+            }
+            self.solve_from_start(problem)?;
+            let p = &mut self.portfolio;
+            // On a tie the later start is kept.
+            let keep_new = i == 0 || !better(&p.report, &self.report, tol);
+            if !keep_new {
+                discarded += self.report.iterations;
+                discarded_qps += self.report.qp;
+                live_is_best = false;
+                continue;
+            }
+            if member.is_none() {
+                // The polish continues the kept solution's iterations.
+                self.report.iterations += p.report.iterations;
+            } else if i > 0 {
+                discarded += p.report.iterations;
+                discarded_qps += p.report.qp;
+            }
+            // The best's report moves to the portfolio (and back at the end), not copied: the
+            // log is allocated once.
+            p.best[..n].clone_from_slice(&self.core.traj.us[..n]);
+            std::mem::swap(&mut self.report, &mut p.report);
+            p.best_in_warm_up = self.it.accepted_in_warm_up;
+            live_is_best = true;
+        }
+        let p = &mut self.portfolio;
+        std::mem::swap(&mut self.report, &mut p.report);
+        if !live_is_best {
+            // Back to the kept solution: its trajectory, and the gains and multipliers of a
+            // backward pass there (what its solve ended with).
+            self.core.traj.us[..n].clone_from_slice(&p.best[..n]);
+            self.core.rollout(problem);
+            self.warm.active = false;
+            self.linearize_now(problem);
+            let _ = self.compute_direction(problem);
+            self.warm.lambda.copy_from_slice(&self.rows.lambda);
+            self.refresh_merit();
         }
         let p = &mut self.portfolio;
         p.member = None;
@@ -706,6 +739,7 @@ where
         self.it.need_linearize = true;
         self.it.started = true;
         self.it.iteration = 0;
+        self.it.accepted_in_warm_up = false;
         self.report.initial_cost = cost;
         self.log(0, 0.0, true);
         Ok(())
@@ -1023,6 +1057,9 @@ where
     // Internals.
 
     fn log(&mut self, iteration: usize, step: f64, accepted: bool) {
+        if accepted {
+            self.it.accepted_in_warm_up = self.warm.active;
+        }
         if self.report.log.len() < self.report.log.capacity() {
             self.report.log.push(IterationLog {
                 iteration,

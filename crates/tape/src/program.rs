@@ -837,10 +837,10 @@ impl Program {
         self.reverse(s, dot, bar, hess, lambda);
     }
 
-    /// The layout of a kept sweep ([`Program::jacobian_keep`]): the program's id, the point
-    /// `z`, then `s` and `dot`.
+    /// The layout of a kept sweep ([`Program::jacobian_keep`]): the program's id, then `s`
+    /// (which begins with the point `z`, never overwritten) and `dot`.
     fn kept_len(&self) -> usize {
-        1 + self.n_inputs + self.s_template.len() + self.n_dot
+        1 + self.s_template.len() + self.n_dot
     }
 
     /// [`Program::jacobian`] into `data` instead of a workspace, keeping the sweep and the
@@ -848,19 +848,15 @@ impl Program {
     /// reverse sweep reads). `data` is resized and loaded once for this program (its first use,
     /// or after another program's); afterwards [`Program::kept_dot`] gives the tangent entries.
     pub fn jacobian_keep(&self, data: &mut Vec<f64>, x: &[f64], u: &[f64]) {
-        let (n, len) = (self.n_inputs, self.kept_len());
-        let s_len = self.s_template.len();
+        let (len, s_len) = (self.kept_len(), self.s_template.len());
         if data.len() != len || data[0].to_bits() != self.id.0 {
             data.clear();
             data.resize(len, 0.0);
             data[0] = f64::from_bits(self.id.0);
-            let (s, dot) = data[1 + n..].split_at_mut(s_len);
+            let (s, dot) = data[1..].split_at_mut(s_len);
             self.load(s, dot);
         }
-        let (key, rest) = data[1..].split_at_mut(n);
-        copy_small(&mut key[..x.len()], x);
-        copy_small(&mut key[x.len()..], u);
-        let (s, dot) = rest.split_at_mut(s_len);
+        let (s, dot) = data[1..].split_at_mut(s_len);
         if self.one_sweep {
             self.sweep::<2>(&self.jacobian_instrs, s, x, u);
         } else {
@@ -872,7 +868,7 @@ impl Program {
     /// The tangent entries of a sweep [`Program::jacobian_keep`] kept (indexed like
     /// [`ProgramWorkspace::dot`]).
     pub fn kept_dot<'a>(&self, data: &'a [f64]) -> &'a [f64] {
-        &data[1 + self.n_inputs + self.s_template.len()..]
+        &data[1 + self.s_template.len()..]
     }
 
     /// [`Program::second_order`] from the sweep [`Program::jacobian_keep`] kept in `data`,
@@ -890,13 +886,11 @@ impl Program {
         if !self.one_sweep || data.len() != self.kept_len() || data[0].to_bits() != self.id.0 {
             return false;
         }
-        let (key, rest) = data[1..].split_at(n);
-        let same =
-            |a: &[f64], b: &[f64]| a.len() == b.len() && a.iter().zip(b).all(|(p, q)| p.to_bits() == q.to_bits());
-        if x.len() + u.len() != n || !same(&key[..x.len()], x) || !same(&key[x.len()..], u) {
+        let (s, dot) = data[1..].split_at(self.s_template.len());
+        let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(p, q)| p.to_bits() == q.to_bits());
+        if x.len() + u.len() != n || !same(&s[..x.len()], x) || !same(&s[x.len()..n], u) {
             return false;
         }
-        let (s, dot) = rest.split_at(self.s_template.len());
         let ProgramWorkspace { bar, hess, .. } = ws;
         self.reverse(s, dot, bar, hess, lambda);
         true

@@ -7,7 +7,9 @@
 //! evaluates, so repeated evaluations allocate nothing and many threads may evaluate one model at
 //! once. Each model compiles its tape into a [`Program`] when built (see [`crate::program`]) and
 //! resolves where every Jacobian and Hessian entry goes in the solver's matrices then, so an
-//! evaluation only runs flat lists.
+//! evaluation only runs flat lists. For full DDP, [`TapeDynamics`] keeps each knot's forward
+//! sweep in the solver's data ([`Dynamics::jacobians_keep`]) so that the backward passes at that
+//! linearisation run only the reverse sweep.
 //! Inputs of the wrong length (a bug of the caller; problems check sizes when built) give NaN
 //! outputs, never a panic.
 

@@ -31,6 +31,12 @@
 //!   resolved when compiling; only the lower triangle (`row >= col`, in `z = (x, u)` order: the
 //!   `xx`, `ux` and `uu` blocks a solver reads) below a row limit is formed.
 //!
+//! - **One forward sweep per point for full DDP** ([`Needs::one_sweep`]). The solver linearises
+//!   once and then runs a backward pass per regularisation it tries, each with new weights
+//!   `lambda = V_x'` at the same `z`. Values, partials and tangents do not depend on `lambda`, so
+//!   [`Program::jacobian_keep`] leaves them in the knot's data and
+//!   [`Program::second_order_kept`] runs only the reverse sweep and the curvature terms.
+//!
 //! Scratch is a [`ProgramWorkspace`] that grows to the largest program it has run and then
 //! allocates nothing.
 

@@ -3,7 +3,9 @@
 //! A model is immutable and `Send + Sync`; the solver owns every buffer a solve writes. First
 //! derivatives are required (`f_x`, `f_u`); second derivatives are optional and only used by full
 //! DDP, in contracted form: the solver needs `sum_i lambda_i * d^2 f_i / d(x,u)^2` with
-//! `lambda = V_x'` (the next knot's value gradient), never the full third-order tensor.
+//! `lambda = V_x'` (the next knot's value gradient), never the full third-order tensor. A model
+//! whose second derivatives share work with its Jacobians (a traced tape's forward sweep) can keep
+//! that work per knot ([`Dynamics::jacobians_keep`], [`Dynamics::add_second_order_kept`]).
 
 use crate::dims::{Alloc, DefaultAllocator, Dim, MatrixN, VectorN};
 

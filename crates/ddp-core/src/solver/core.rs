@@ -96,7 +96,8 @@ impl<NX: Dim, NU: Dim> Linearization<NX, NU>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    /// Zero derivatives for `n` knots.
+    /// Zero derivatives for `n` knots. The dynamics' data starts empty (no allocation); a model
+    /// that keeps some grows its knot's once, at the first full-DDP linearisation.
     pub fn new(dims: Dims<NX, NU>, n: usize) -> Self {
         Self {
             fx: vec![dims.xx_zeros(); n],

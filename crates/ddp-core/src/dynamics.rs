@@ -86,7 +86,6 @@ where
     /// knot. Full DDP calls it once per backward pass (several per linearisation when the
     /// regularisation is raised), so reusing the kept sweep pays. `data` may be empty or belong
     /// to another point (a model must check); the default ignores it.
-    #[allow(clippy::too_many_arguments)]
     fn add_second_order_kept(
         &self,
         x: &VectorN<NX>,

@@ -107,6 +107,8 @@ struct Curvature {
 const ZERO: u32 = 0;
 const ONE: u32 = 1;
 const MINUS_ONE: u32 = 2;
+/// Hessians of at most this many entries (22 inputs) are formed in a fixed-size array.
+const SMALL_HESSIAN: usize = 256;
 /// The zero slot of `dot`.
 const DOT_ZERO: u32 = 0;
 /// The slot of `dot` holding 1 (every input's tangent entry).
@@ -920,20 +922,30 @@ impl Program {
                 bar[a.arg as usize] += s[a.p as usize] * b;
             }
         }
-        grow(hess, self.pattern.len());
-        let hess = &mut hess[..self.pattern.len()];
-        hess.fill(0.0);
-        for c in &self.curvature {
-            // A node without adjoint, or without curvature here, adds nothing (never
-            // `0 * inf`).
-            let (b, k) = (bar[c.r as usize], s[c.k as usize]);
-            if b == 0.0 || k == 0.0 {
-                continue;
-            }
-            let coef = b * k;
-            for &(h, u, w) in &self.terms[c.terms.0 as usize..c.terms.1 as usize] {
-                hess[h as usize] += coef * dot[u as usize] * dot[w as usize];
-            }
+        let len = self.pattern.len();
+        grow(hess, len.max(SMALL_HESSIAN));
+        hess[..len].fill(0.0);
+        macro_rules! curvature {
+            ($hess:expr, $at:expr) => {
+                for c in &self.curvature {
+                    // A node without adjoint, or without curvature here, adds nothing (never
+                    // `0 * inf`).
+                    let (b, k) = (bar[c.r as usize], s[c.k as usize]);
+                    if b == 0.0 || k == 0.0 {
+                        continue;
+                    }
+                    let coef = b * k;
+                    for &(h, u, w) in &self.terms[c.terms.0 as usize..c.terms.1 as usize] {
+                        $hess[$at(h)] += coef * dot[u as usize] * dot[w as usize];
+                    }
+                }
+            };
+        }
+        match <&mut [f64; SMALL_HESSIAN]>::try_from(&mut hess[..SMALL_HESSIAN]) {
+            // Every `h < len <= 256` fits a `u8`: indexing a 256-array by one needs no bounds
+            // check in the innermost loop.
+            Ok(small) if len <= SMALL_HESSIAN => curvature!(small, |h: u32| h as u8 as usize),
+            _ => curvature!(hess, |h: u32| h as usize),
         }
     }
 

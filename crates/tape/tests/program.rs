@@ -388,6 +388,25 @@ proptest! {
     }
 }
 
+/// A dense Hessian of more than 256 entries (30 inputs) takes the general curvature loop.
+#[test]
+fn a_hessian_of_more_than_256_entries_equals_the_interpreter() {
+    let n = 30;
+    let mut b = TapeBuilder::new(n);
+    let mut sum = b.input(0).unwrap();
+    for k in 1..n {
+        let x = b.input(k).unwrap();
+        sum = b.binary(Binary::Add, sum, x).unwrap();
+    }
+    let sin = b.unary(Unary::Sin, sum).unwrap();
+    let x0 = b.input(0).unwrap();
+    let out = b.binary(Binary::Mul, sin, x0).unwrap();
+    let t = b.finish(&[out, sin]).unwrap();
+    assert!(Program::new(&t, n).hessian_pattern().len() > 256);
+    let z: Vec<f64> = (0..n).map(|k| 0.1 * k as f64 - 1.0).collect();
+    check(&t, &z, &[0.7, -1.3], 20, n).unwrap();
+}
+
 #[test]
 fn values_of_an_integrator_step_equal_the_interpreter_bit_for_bit() {
     // x + dt f(x, u) by Euler and RK4: the fused `a + c b` instructions do the same operations in

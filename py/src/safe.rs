@@ -808,6 +808,7 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("constraint_tolerance", s.constraint_tolerance)?;
     d.set_item("qp_method", qp_name(s.qp_method))?;
     d.set_item("warm_up", s.warm_up.as_str())?;
+    d.set_item("portfolio_polish", s.portfolio_polish)?;
     Ok(d)
 }
 
@@ -830,6 +831,7 @@ fn settings_from(
     constraint_tolerance: f64,
     qp_method: &str,
     warm_up: &str,
+    portfolio_polish: bool,
 ) -> CoreResult<Settings> {
     let method = parse_method(method)?;
     let warm_up = [
@@ -866,6 +868,7 @@ fn settings_from(
         constraint_tolerance,
         qp_method,
         warm_up,
+        portfolio_polish,
         ..Settings::default()
     };
     s.validate()?;
@@ -1071,11 +1074,13 @@ impl SafeCddpSolver {
                         max_iterations = Settings::default().max_iterations as i64,
                         constraint_tolerance = Settings::default().constraint_tolerance,
                         qp_method = qp_name(Settings::default().qp_method),
-                        warm_up = Settings::default().warm_up.as_str()))]
+                        warm_up = Settings::default().warm_up.as_str(),
+                        portfolio_polish = Settings::default().portfolio_polish))]
     // The defaults as Python sees them; tests compare them and the stub with `default_settings`.
     #[pyo3(
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
-                             constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio')"
+                             constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
+                             portfolio_polish=False)"
     )]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -1087,9 +1092,17 @@ impl SafeCddpSolver {
         constraint_tolerance: f64,
         qp_method: &str,
         warm_up: &str,
+        portfolio_polish: bool,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
-        let settings = settings_from(method, max_iterations, constraint_tolerance, qp_method, warm_up)?;
+        let settings = settings_from(
+            method,
+            max_iterations,
+            constraint_tolerance,
+            qp_method,
+            warm_up,
+            portfolio_polish,
+        )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
         let shared = p.inner.clone();
@@ -1525,6 +1538,7 @@ impl Mpc {
             d.constraint_tolerance,
             qp_name(d.qp_method),
             d.warm_up.as_str(),
+            d.portfolio_polish,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1821,10 +1835,12 @@ where
                     max_iterations = Settings::default().max_iterations as i64,
                     constraint_tolerance = Settings::default().constraint_tolerance,
                     qp_method = qp_name(Settings::default().qp_method),
-                    warm_up = Settings::default().warm_up.as_str()))]
+                    warm_up = Settings::default().warm_up.as_str(),
+                    portfolio_polish = Settings::default().portfolio_polish))]
 #[pyo3(
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
-                         constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio')"
+                         constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
+                             portfolio_polish=False)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn solve_batch_safe(
@@ -1838,8 +1854,16 @@ fn solve_batch_safe(
     constraint_tolerance: f64,
     qp_method: &str,
     warm_up: &str,
+    portfolio_polish: bool,
 ) -> PyResult<Vec<SafeSolution>> {
-    let settings = settings_from(method, max_iterations, constraint_tolerance, qp_method, warm_up)?;
+    let settings = settings_from(
+        method,
+        max_iterations,
+        constraint_tolerance,
+        qp_method,
+        warm_up,
+        portfolio_polish,
+    )?;
     let batch = crate::batch::problems_of(problems)?;
     let threads = crate::batch::threads_of(threads)?;
     let specs = batch_constraints(constraints, batch.locks.len())?;

@@ -76,6 +76,24 @@ def test_every_warm_up_reaches_p3s_optimum_also_from_a_start_through_the_obstacl
         assert (sol.discarded_iterations > 0) == (warm_up == "portfolio" and us0 is None)
 
 
+def test_the_portfolio_polish_is_selectable_never_worse_and_pickles() -> None:
+    import pickle
+
+    assert ddpkit.default_settings("SafeCddpSolver")["portfolio_polish"] is False
+    plain = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles()).solve()
+    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=True)
+    polished = solver.solve()
+    # P3's kept solution is the augmented Lagrangian's: the polish runs and cannot end worse.
+    assert polished.converged and polished.max_violation <= 1e-6
+    assert polished.cost <= plain.cost
+    assert polished.iterations + polished.discarded_iterations > plain.iterations + plain.discarded_iterations
+    again = pickle.loads(pickle.dumps(solver))
+    assert again == solver and again != ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles())
+    np.testing.assert_array_equal(again.solve().us, polished.us)
+    batch = ddpkit.solve_batch_safe([p3_problem()], p3_obstacles(), threads=1, portfolio_polish=True)
+    np.testing.assert_array_equal(batch[0].us, polished.us)
+
+
 def test_a_start_trapped_in_an_obstacle_ends_infeasible_with_finite_numbers() -> None:
     problem = p3_problem()
     problem.set_x0([1.0, 1.1, 0.0, 0.0])  # the centre of the first obstacle

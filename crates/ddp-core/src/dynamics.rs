@@ -3,7 +3,9 @@
 //! A model is immutable and `Send + Sync`; the solver owns every buffer a solve writes. First
 //! derivatives are required (`f_x`, `f_u`); second derivatives are optional and only used by full
 //! DDP, in contracted form: the solver needs `sum_i lambda_i * d^2 f_i / d(x,u)^2` with
-//! `lambda = V_x'` (the next knot's value gradient), never the full third-order tensor.
+//! `lambda = V_x'` (the next knot's value gradient), never the full third-order tensor. A model
+//! whose second derivatives share work with its Jacobians (a traced tape's forward sweep) can keep
+//! that work per knot ([`Dynamics::jacobians_keep`], [`Dynamics::add_second_order_kept`]).
 
 use crate::dims::{Alloc, DefaultAllocator, Dim, MatrixN, VectorN};
 
@@ -63,6 +65,39 @@ where
         _h_uu: &mut MatrixN<NU, NU>,
     ) {
     }
+
+    /// [`Dynamics::jacobians`] where full DDP will ask for [`Dynamics::add_second_order_kept`]
+    /// at the same point: a model may keep in `data` what it computed and the second-order
+    /// terms reuse (its forward sweep), as a Crocoddyl action model keeps its data. `data` is
+    /// the knot's, owned by the solver's workspace and passed back unchanged; it starts empty
+    /// and a model grows it once. The default keeps nothing.
+    fn jacobians_keep(
+        &self,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        fx: &mut MatrixN<NX, NX>,
+        fu: &mut MatrixN<NX, NU>,
+        _data: &mut Vec<f64>,
+    ) {
+        self.jacobians(x, u, fx, fu);
+    }
+
+    /// [`Dynamics::add_second_order`] with the `data` [`Dynamics::jacobians_keep`] left for this
+    /// knot. Full DDP calls it once per backward pass (several per linearisation when the
+    /// regularisation is raised), so reusing the kept sweep pays. `data` may be empty or belong
+    /// to another point (a model must check); the default ignores it.
+    fn add_second_order_kept(
+        &self,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        lambda: &VectorN<NX>,
+        _data: &[f64],
+        h_xx: &mut MatrixN<NX, NX>,
+        h_ux: &mut MatrixN<NU, NX>,
+        h_uu: &mut MatrixN<NU, NU>,
+    ) {
+        self.add_second_order(x, u, lambda, h_xx, h_ux, h_uu);
+    }
 }
 
 impl<NX: Dim, NU: Dim, D: Dynamics<NX, NU> + ?Sized> Dynamics<NX, NU> for std::sync::Arc<D>
@@ -94,5 +129,27 @@ where
         h_uu: &mut MatrixN<NU, NU>,
     ) {
         (**self).add_second_order(x, u, lambda, h_xx, h_ux, h_uu)
+    }
+    fn jacobians_keep(
+        &self,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        fx: &mut MatrixN<NX, NX>,
+        fu: &mut MatrixN<NX, NU>,
+        data: &mut Vec<f64>,
+    ) {
+        (**self).jacobians_keep(x, u, fx, fu, data)
+    }
+    fn add_second_order_kept(
+        &self,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        lambda: &VectorN<NX>,
+        data: &[f64],
+        h_xx: &mut MatrixN<NX, NX>,
+        h_ux: &mut MatrixN<NU, NX>,
+        h_uu: &mut MatrixN<NU, NU>,
+    ) {
+        (**self).add_second_order_kept(x, u, lambda, data, h_xx, h_ux, h_uu)
     }
 }

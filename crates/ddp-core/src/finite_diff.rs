@@ -198,4 +198,26 @@ impl<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>> Dynami
     ) {
         (**self).add_second_order(x, u, lambda, h_xx, h_ux, h_uu)
     }
+    fn jacobians_keep(
+        &self,
+        x: &Vector<NX>,
+        u: &Vector<NU>,
+        fx: &mut Matrix<NX, NX>,
+        fu: &mut Matrix<NX, NU>,
+        data: &mut Vec<f64>,
+    ) {
+        (**self).jacobians_keep(x, u, fx, fu, data)
+    }
+    fn add_second_order_kept(
+        &self,
+        x: &Vector<NX>,
+        u: &Vector<NU>,
+        lambda: &Vector<NX>,
+        data: &[f64],
+        h_xx: &mut Matrix<NX, NX>,
+        h_ux: &mut Matrix<NU, NX>,
+        h_uu: &mut Matrix<NU, NU>,
+    ) {
+        (**self).add_second_order_kept(x, u, lambda, data, h_xx, h_ux, h_uu)
+    }
 }

@@ -104,6 +104,46 @@ impl<const NX: usize, const NU: usize, M: Dynamics<Const<NX>, Const<NU>>> Dynami
         copy_back(h_ux, &b);
         copy_back(h_uu, &c);
     }
+    fn jacobians_keep(
+        &self,
+        x: &VectorN<Dyn>,
+        u: &VectorN<Dyn>,
+        fx: &mut MatrixN<Dyn, Dyn>,
+        fu: &mut MatrixN<Dyn, Dyn>,
+        data: &mut Vec<f64>,
+    ) {
+        let (mut a, mut b) = (Matrix::<NX, NX>::zeros(), Matrix::<NX, NU>::zeros());
+        self.0
+            .jacobians_keep(&fixed::<NX>(x), &fixed::<NU>(u), &mut a, &mut b, data);
+        copy_back(fx, &a);
+        copy_back(fu, &b);
+    }
+    fn add_second_order_kept(
+        &self,
+        x: &VectorN<Dyn>,
+        u: &VectorN<Dyn>,
+        lambda: &VectorN<Dyn>,
+        data: &[f64],
+        h_xx: &mut MatrixN<Dyn, Dyn>,
+        h_ux: &mut MatrixN<Dyn, Dyn>,
+        h_uu: &mut MatrixN<Dyn, Dyn>,
+    ) {
+        let mut a = Matrix::<NX, NX>::from_column_slice(h_xx.as_slice());
+        let mut b = Matrix::<NU, NX>::from_column_slice(h_ux.as_slice());
+        let mut c = Matrix::<NU, NU>::from_column_slice(h_uu.as_slice());
+        self.0.add_second_order_kept(
+            &fixed::<NX>(x),
+            &fixed::<NU>(u),
+            &fixed::<NX>(lambda),
+            data,
+            &mut a,
+            &mut b,
+            &mut c,
+        );
+        copy_back(h_xx, &a);
+        copy_back(h_ux, &b);
+        copy_back(h_uu, &c);
+    }
 }
 
 impl<const NX: usize, const NU: usize, C: Cost<Const<NX>, Const<NU>>> Cost<Dyn, Dyn> for RunTimeSize<C, NX, NU> {

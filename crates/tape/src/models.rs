@@ -7,7 +7,9 @@
 //! evaluates, so repeated evaluations allocate nothing and many threads may evaluate one model at
 //! once. Each model compiles its tape into a [`Program`] when built (see [`crate::program`]) and
 //! resolves where every Jacobian and Hessian entry goes in the solver's matrices then, so an
-//! evaluation only runs flat lists.
+//! evaluation only runs flat lists. For full DDP, [`TapeDynamics`] keeps each knot's forward
+//! sweep in the solver's data ([`Dynamics::jacobians_keep`]) so that the backward passes at that
+//! linearisation run only the reverse sweep.
 //! Inputs of the wrong length (a bug of the caller; problems check sizes when built) give NaN
 //! outputs, never a panic.
 
@@ -126,6 +128,39 @@ struct Compiled {
     hess: Vec<HessianSlot>,
 }
 
+impl Compiled {
+    /// A dynamics program and where its Jacobian and Hessian entries go.
+    fn dynamics(prog: Program, nx: usize, nu: usize) -> Self {
+        let (mut jac_x, mut jac_u) = (Vec::new(), Vec::new());
+        for &(i, c, slot) in prog.jacobian_entries() {
+            let (i, c) = (i as usize, c as usize);
+            if c < nx {
+                jac_x.push((slot, (c * nx + i) as u32));
+            } else {
+                jac_u.push((slot, ((c - nx) * nx + i) as u32));
+            }
+        }
+        let hess = hessian_slots(&prog, nx, nu);
+        Self {
+            prog,
+            jac_x,
+            jac_u,
+            hess,
+        }
+    }
+
+    /// Writes the Jacobian entries from `dot` into `f_x` and `f_u` (column-major).
+    #[inline]
+    fn write_jacobians(&self, dot: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+        for (m, entries) in [(fx, &self.jac_x), (fu, &self.jac_u)] {
+            m.fill(0.0);
+            for &(slot, off) in entries {
+                m[off as usize] = dot[slot as usize];
+            }
+        }
+    }
+}
+
 /// Discrete dynamics `x+ = F(x, u)` given by a tape with inputs `(x, u)` and `nx` outputs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TapeDynamics {
@@ -133,6 +168,8 @@ pub struct TapeDynamics {
     nx: usize,
     nu: usize,
     compiled: Arc<Compiled>,
+    /// The program of [`Dynamics::jacobians_keep`] ([`Needs::one_sweep`]).
+    kept: Arc<Compiled>,
 }
 
 impl TapeDynamics {
@@ -147,28 +184,26 @@ impl TapeDynamics {
                 hessian_rows: nx + nu,
                 jacobian_values: false,
                 gradient: false,
+                one_sweep: false,
             },
         );
-        let (mut jac_x, mut jac_u) = (Vec::new(), Vec::new());
-        for &(i, c, slot) in prog.jacobian_entries() {
-            let (i, c) = (i as usize, c as usize);
-            if c < nx {
-                jac_x.push((slot, (c * nx + i) as u32));
-            } else {
-                jac_u.push((slot, ((c - nx) * nx + i) as u32));
-            }
-        }
-        let hess = hessian_slots(&prog, nx, nu);
+        // Full DDP's: one forward sweep per knot and linearisation, kept for the backward
+        // passes.
+        let kept = Program::with_needs(
+            &tape,
+            Needs {
+                hessian_rows: nx + nu,
+                jacobian_values: false,
+                gradient: false,
+                one_sweep: true,
+            },
+        );
         Ok(Self {
             tape: Arc::new(tape),
             nx,
             nu,
-            compiled: Arc::new(Compiled {
-                prog,
-                jac_x,
-                jac_u,
-                hess,
-            }),
+            compiled: Arc::new(Compiled::dynamics(prog, nx, nu)),
+            kept: Arc::new(Compiled::dynamics(kept, nx, nu)),
         })
     }
     /// The tape.
@@ -214,13 +249,56 @@ where
         let c = &*self.compiled;
         with_ws(|ws| {
             c.prog.jacobian(ws, x.as_slice(), u.as_slice());
-            for (m, entries) in [(fx.as_mut_slice(), &c.jac_x), (fu.as_mut_slice(), &c.jac_u)] {
-                m.fill(0.0);
-                for &(slot, off) in entries {
-                    m[off as usize] = ws.dot[slot as usize];
-                }
-            }
+            c.write_jacobians(&ws.dot, fx.as_mut_slice(), fu.as_mut_slice());
         });
+    }
+    fn jacobians_keep(
+        &self,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        fx: &mut MatrixN<NX, NX>,
+        fu: &mut MatrixN<NX, NU>,
+        data: &mut Vec<f64>,
+    ) {
+        let nx = self.nx;
+        if !self.fits(x.len(), u.len()) || fx.len() != nx * nx || fu.len() != nx * self.nu {
+            fx.fill(f64::NAN);
+            fu.fill(f64::NAN);
+            return;
+        }
+        let c = &*self.kept;
+        c.prog.jacobian_keep(data, x.as_slice(), u.as_slice());
+        c.write_jacobians(c.prog.kept_dot(data), fx.as_mut_slice(), fu.as_mut_slice());
+    }
+    fn add_second_order_kept(
+        &self,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        lambda: &VectorN<NX>,
+        data: &[f64],
+        h_xx: &mut MatrixN<NX, NX>,
+        h_ux: &mut MatrixN<NU, NX>,
+        h_uu: &mut MatrixN<NU, NU>,
+    ) {
+        if !self.fits(x.len(), u.len()) || lambda.len() != self.nx {
+            h_xx.fill(f64::NAN);
+            return;
+        }
+        let c = &*self.kept;
+        let done = with_ws(|ws| {
+            let kept = c
+                .prog
+                .second_order_kept(ws, data, x.as_slice(), u.as_slice(), lambda.as_slice());
+            if kept {
+                let blocks = [h_xx.as_mut_slice(), h_ux.as_mut_slice(), h_uu.as_mut_slice()];
+                add_hessian(&c.hess, &ws.hess, blocks);
+            }
+            kept
+        });
+        if !done {
+            // No sweep kept at this point (another caller's data, or a changed trajectory).
+            Dynamics::<NX, NU>::add_second_order(self, x, u, lambda, h_xx, h_ux, h_uu);
+        }
     }
     fn has_second_order(&self) -> bool {
         true
@@ -268,6 +346,7 @@ impl TapeCost {
                 hessian_rows: nx + nu,
                 jacobian_values: false,
                 gradient: true,
+                one_sweep: false,
             },
         );
         let hess = hessian_slots(&prog, nx, nu);
@@ -349,6 +428,7 @@ impl TapeTerminal {
                 hessian_rows: nx,
                 jacobian_values: false,
                 gradient: true,
+                one_sweep: false,
             },
         );
         let hess = hessian_slots(&prog, nx, 0);
@@ -431,6 +511,7 @@ impl TapeConstraint {
                 hessian_rows: nx,
                 jacobian_values: true,
                 gradient: false,
+                one_sweep: false,
             },
         );
         let hess = hessian_slots(&prog, nx, 0);

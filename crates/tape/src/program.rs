@@ -31,6 +31,12 @@
 //!   resolved when compiling; only the lower triangle (`row >= col`, in `z = (x, u)` order: the
 //!   `xx`, `ux` and `uu` blocks a solver reads) below a row limit is formed.
 //!
+//! - **One forward sweep per point for full DDP** ([`Needs::one_sweep`]). The solver linearises
+//!   once and then runs a backward pass per regularisation it tries, each with new weights
+//!   `lambda = V_x'` at the same `z`. Values, partials and tangents do not depend on `lambda`, so
+//!   [`Program::jacobian_keep`] leaves them in the knot's data and
+//!   [`Program::second_order_kept`] runs only the reverse sweep and the curvature terms.
+//!
 //! Scratch is a [`ProgramWorkspace`] that grows to the largest program it has run and then
 //! allocates nothing.
 
@@ -101,6 +107,8 @@ struct Curvature {
 const ZERO: u32 = 0;
 const ONE: u32 = 1;
 const MINUS_ONE: u32 = 2;
+/// Hessians of at most this many entries (22 inputs) are formed in a fixed-size array.
+const SMALL_HESSIAN: usize = 256;
 /// The zero slot of `dot`.
 const DOT_ZERO: u32 = 0;
 /// The slot of `dot` holding 1 (every input's tangent entry).
@@ -134,6 +142,8 @@ impl PartialEq for ProgramId {
 pub struct Program {
     id: ProgramId,
     n_inputs: usize,
+    /// [`Needs::one_sweep`].
+    one_sweep: bool,
     /// The constants `0, 1, -1` and the tape's, at `s[n_inputs..n_inputs + n_consts]`.
     n_consts: usize,
     /// Values and partials end at `n_slots`; the constant coefficients of tangent combinations
@@ -177,6 +187,10 @@ pub struct Needs {
     /// Whether [`Program::second_order`] computes the gradient and the outputs' values (a cost
     /// reads both; dynamics and constraints only the Hessian).
     pub gradient: bool,
+    /// Whether [`Program::jacobian`] and [`Program::jacobian_keep`] also leave everything the
+    /// reverse sweep of [`Program::second_order_kept`] reads (second partials and the
+    /// curvature's tangents), so that full DDP sweeps forward once per knot and linearisation.
+    pub one_sweep: bool,
 }
 
 /// Scratch of [`Program`] runs.
@@ -249,6 +263,7 @@ impl Program {
                 hessian_rows,
                 jacobian_values: true,
                 gradient: true,
+                one_sweep: false,
             },
         )
     }
@@ -452,20 +467,6 @@ impl Program {
         };
         let all: Vec<bool> = vec![true; n_values];
         let outputs: Vec<u32> = tape.outputs().iter().map(|&o| slot[o as usize]).collect();
-        let jac_state = tc.compile(&ctx, &all, &outputs);
-        let jacobian = std::mem::take(&mut tc.records);
-        let mut jacobian_entries = Vec::new();
-        for (i, &v) in outputs.iter().enumerate() {
-            for (j, &c) in cols[v as usize].iter().enumerate() {
-                jacobian_entries.push((
-                    i as u32,
-                    c,
-                    jac_state.mat[v as usize].as_ref().map_or(DOT_ZERO, |m| m[j]),
-                ));
-            }
-        }
-        let jac_runtime = tc.n_runtime;
-        tc.n_runtime = 0;
 
         // Curvature terms: for every nonlinear node, the pairs of argument tangent entries in
         // the kept part of the Hessian, as (row, col, node u, entry p, node w, entry q).
@@ -529,9 +530,34 @@ impl Program {
         }
         required.sort_unstable();
         required.dedup();
-        let hess_state = tc.compile(&ctx, &relevant, &required);
-        let hess_tangents = std::mem::take(&mut tc.records);
-        let hess_runtime = tc.n_runtime;
+        // With one sweep, the Jacobian's tangents also materialise the ones the curvature
+        // reads. The arguments of nonlinear nodes are materialised where those nodes are
+        // compiled either way, so every entry is formed by the same operations as in two sweeps.
+        let mut jac_required = outputs.clone();
+        if needs.one_sweep {
+            jac_required.extend(&required);
+        }
+        let jac_state = tc.compile(&ctx, &all, &jac_required);
+        let jacobian = std::mem::take(&mut tc.records);
+        let mut jacobian_entries = Vec::new();
+        for (i, &v) in outputs.iter().enumerate() {
+            for (j, &c) in cols[v as usize].iter().enumerate() {
+                jacobian_entries.push((
+                    i as u32,
+                    c,
+                    jac_state.mat[v as usize].as_ref().map_or(DOT_ZERO, |m| m[j]),
+                ));
+            }
+        }
+        let jac_runtime = tc.n_runtime;
+        tc.n_runtime = 0;
+        let own_hess_state;
+        let (hess_state, hess_tangents, hess_runtime) = if needs.one_sweep {
+            (&jac_state, jacobian.clone(), 0)
+        } else {
+            own_hess_state = tc.compile(&ctx, &relevant, &required);
+            (&own_hess_state, std::mem::take(&mut tc.records), tc.n_runtime)
+        };
         let entry = |v: u32, j: u32| hess_state.mat[v as usize].as_ref().map_or(DOT_ZERO, |m| m[j as usize]);
 
         let mut pattern: Vec<(u32, u32)> = raw
@@ -629,18 +655,27 @@ impl Program {
         let out_reads = |on: bool| if on { outputs.clone() } else { Vec::new() };
         let mut reads = out_reads(needs.jacobian_values);
         reads.extend(jacobian.iter().flat_map(|f: &Fma| [f.p, f.q]));
-        let jacobian_instrs = needed(reads);
+        let mut jacobian_instrs = needed(reads);
         let mut reads = out_reads(needs.gradient);
         reads.extend(hess_tangents.iter().flat_map(|f: &Fma| [f.p, f.q]));
         reads.extend(adjoints.iter().map(|a| a.p));
         reads.extend(curvature.iter().map(|c| c.k));
         let hessian_instrs = needed(reads);
+        if needs.one_sweep {
+            // The one sweep also leaves what the reverse sweep reads.
+            let mut reads = out_reads(needs.jacobian_values || needs.gradient);
+            reads.extend(jacobian.iter().flat_map(|f: &Fma| [f.p, f.q]));
+            reads.extend(adjoints.iter().map(|a| a.p));
+            reads.extend(curvature.iter().map(|c| c.k));
+            jacobian_instrs = needed(reads);
+        }
         let mut s_template = vec![0.0; n_slots + tc.coefs.len()];
         s_template[n..n + consts.len()].copy_from_slice(&consts);
         s_template[n_slots..].copy_from_slice(&tc.coefs);
         Program {
             id: ProgramId(NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed)),
             n_inputs: n,
+            one_sweep: needs.one_sweep,
             n_consts: consts.len(),
             s_template,
             n_slots,
@@ -670,18 +705,28 @@ impl Program {
     /// instructions: values, with the first partials (`ORDER >= 1`) and second partials
     /// (`ORDER == 2`).
     fn run<const ORDER: u8>(&self, instrs: &[Instr], ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
-        let n = self.n_inputs;
         if ws.loaded != self.id.0 {
-            // Constants, coefficients and constant tangent entries: nothing else writes there.
-            let t = &self.s_template;
-            grow(&mut ws.s, t.len());
-            ws.s[n..n + self.n_consts].copy_from_slice(&t[n..n + self.n_consts]);
-            ws.s[self.n_slots..t.len()].copy_from_slice(&t[self.n_slots..]);
+            grow(&mut ws.s, self.s_template.len());
             grow(&mut ws.dot, self.n_dot);
-            ws.dot[..self.dot_template.len()].copy_from_slice(&self.dot_template);
+            self.load(&mut ws.s, &mut ws.dot);
             ws.loaded = self.id.0;
         }
-        let s = &mut ws.s[..self.s_template.len()];
+        self.sweep::<ORDER>(instrs, &mut ws.s[..self.s_template.len()], x, u);
+    }
+
+    /// Writes the constants, coefficients and constant tangent entries (nothing else writes
+    /// there) into `s` and `dot`.
+    fn load(&self, s: &mut [f64], dot: &mut [f64]) {
+        let (n, t) = (self.n_inputs, &self.s_template);
+        s[n..n + self.n_consts].copy_from_slice(&t[n..n + self.n_consts]);
+        s[self.n_slots..t.len()].copy_from_slice(&t[self.n_slots..]);
+        dot[..self.dot_template.len()].copy_from_slice(&self.dot_template);
+    }
+
+    /// [`Program::run`] on a loaded `s` (`s_template.len()` entries).
+    #[inline(always)]
+    fn sweep<const ORDER: u8>(&self, instrs: &[Instr], s: &mut [f64], x: &[f64], u: &[f64]) {
+        let n = self.n_inputs;
         copy_small(&mut s[..x.len()], x);
         copy_small(&mut s[x.len()..n], u);
         for ins in instrs {
@@ -749,7 +794,11 @@ impl Program {
     }
 
     fn tangents(&self, ws: &mut ProgramWorkspace, list: &[Fma]) {
-        let (s, dot) = (&ws.s, &mut ws.dot[..self.n_dot]);
+        self.tangents_in(list, &ws.s, &mut ws.dot[..self.n_dot]);
+    }
+
+    #[inline(always)]
+    fn tangents_in(&self, list: &[Fma], s: &[f64], dot: &mut [f64]) {
         for f in list {
             dot[f.out as usize] = s[f.p as usize] * dot[f.a as usize] + s[f.q as usize] * dot[f.b as usize];
         }
@@ -773,7 +822,11 @@ impl Program {
     /// [`Program::jacobian_entries`] item, and [`Program::output`] gives the values where
     /// [`Needs::jacobian_values`].
     pub fn jacobian(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
-        self.run::<1>(&self.jacobian_instrs, ws, x, u);
+        if self.one_sweep {
+            self.run::<2>(&self.jacobian_instrs, ws, x, u);
+        } else {
+            self.run::<1>(&self.jacobian_instrs, ws, x, u);
+        }
         self.tangents(ws, &self.jacobian);
     }
 
@@ -788,8 +841,74 @@ impl Program {
     pub fn second_order(&self, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64], lambda: &[f64]) {
         self.run::<2>(&self.hessian_instrs, ws, x, u);
         self.tangents(ws, &self.hess_tangents);
-        grow(&mut ws.bar, self.n_slots);
-        let (s, dot, bar) = (&ws.s, &ws.dot, &mut ws.bar);
+        let ProgramWorkspace { s, dot, bar, hess, .. } = ws;
+        self.reverse(s, dot, bar, hess, lambda);
+    }
+
+    /// The layout of a kept sweep ([`Program::jacobian_keep`]): the program's id, then `s`
+    /// (which begins with the point `z`, never overwritten) and `dot`.
+    fn kept_len(&self) -> usize {
+        1 + self.s_template.len() + self.n_dot
+    }
+
+    /// [`Program::jacobian`] into `data` instead of a workspace, keeping the sweep and the
+    /// point for [`Program::second_order_kept`] (with [`Needs::one_sweep`] that is all the
+    /// reverse sweep reads). `data` is resized and loaded once for this program (its first use,
+    /// or after another program's); afterwards [`Program::kept_dot`] gives the tangent entries.
+    pub fn jacobian_keep(&self, data: &mut Vec<f64>, x: &[f64], u: &[f64]) {
+        let (len, s_len) = (self.kept_len(), self.s_template.len());
+        if data.len() != len || data[0].to_bits() != self.id.0 {
+            data.clear();
+            data.resize(len, 0.0);
+            data[0] = f64::from_bits(self.id.0);
+            let (s, dot) = data[1..].split_at_mut(s_len);
+            self.load(s, dot);
+        }
+        let (s, dot) = data[1..].split_at_mut(s_len);
+        if self.one_sweep {
+            self.sweep::<2>(&self.jacobian_instrs, s, x, u);
+        } else {
+            self.sweep::<1>(&self.jacobian_instrs, s, x, u);
+        }
+        self.tangents_in(&self.jacobian, s, dot);
+    }
+
+    /// The tangent entries of a sweep [`Program::jacobian_keep`] kept (indexed like
+    /// [`ProgramWorkspace::dot`]).
+    pub fn kept_dot<'a>(&self, data: &'a [f64]) -> &'a [f64] {
+        &data[1 + self.s_template.len()..]
+    }
+
+    /// [`Program::second_order`] from the sweep [`Program::jacobian_keep`] kept in `data`,
+    /// without sweeping forward again; `false` (and nothing computed) unless `data` holds this
+    /// program's sweep ([`Needs::one_sweep`]) at exactly `z = (x, u)` (bitwise).
+    pub fn second_order_kept(
+        &self,
+        ws: &mut ProgramWorkspace,
+        data: &[f64],
+        x: &[f64],
+        u: &[f64],
+        lambda: &[f64],
+    ) -> bool {
+        let n = self.n_inputs;
+        if !self.one_sweep || data.len() != self.kept_len() || data[0].to_bits() != self.id.0 {
+            return false;
+        }
+        let (s, dot) = data[1..].split_at(self.s_template.len());
+        let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(p, q)| p.to_bits() == q.to_bits());
+        if x.len() + u.len() != n || !same(&s[..x.len()], x) || !same(&s[x.len()..n], u) {
+            return false;
+        }
+        let ProgramWorkspace { bar, hess, .. } = ws;
+        self.reverse(s, dot, bar, hess, lambda);
+        true
+    }
+
+    /// The reverse sweep and the curvature terms of [`Program::second_order`] after its
+    /// forward sweep left `s` and `dot`.
+    #[inline(always)]
+    fn reverse(&self, s: &[f64], dot: &[f64], bar: &mut Vec<f64>, hess: &mut Vec<f64>, lambda: &[f64]) {
+        grow(bar, self.n_slots);
         for &v in &self.bar_slots {
             bar[v as usize] = 0.0;
         }
@@ -803,20 +922,30 @@ impl Program {
                 bar[a.arg as usize] += s[a.p as usize] * b;
             }
         }
-        grow(&mut ws.hess, self.pattern.len());
-        let hess = &mut ws.hess[..self.pattern.len()];
-        hess.fill(0.0);
-        for c in &self.curvature {
-            // A node without adjoint, or without curvature here, adds nothing (never
-            // `0 * inf`).
-            let (b, k) = (bar[c.r as usize], s[c.k as usize]);
-            if b == 0.0 || k == 0.0 {
-                continue;
-            }
-            let coef = b * k;
-            for &(h, u, w) in &self.terms[c.terms.0 as usize..c.terms.1 as usize] {
-                hess[h as usize] += coef * dot[u as usize] * dot[w as usize];
-            }
+        let len = self.pattern.len();
+        grow(hess, len.max(SMALL_HESSIAN));
+        hess[..len].fill(0.0);
+        macro_rules! curvature {
+            ($hess:expr, $at:expr) => {
+                for c in &self.curvature {
+                    // A node without adjoint, or without curvature here, adds nothing (never
+                    // `0 * inf`).
+                    let (b, k) = (bar[c.r as usize], s[c.k as usize]);
+                    if b == 0.0 || k == 0.0 {
+                        continue;
+                    }
+                    let coef = b * k;
+                    for &(h, u, w) in &self.terms[c.terms.0 as usize..c.terms.1 as usize] {
+                        $hess[$at(h)] += coef * dot[u as usize] * dot[w as usize];
+                    }
+                }
+            };
+        }
+        match <&mut [f64; SMALL_HESSIAN]>::try_from(&mut hess[..SMALL_HESSIAN]) {
+            // Every `h < len <= 256` fits a `u8`: indexing a 256-array by one needs no bounds
+            // check in the innermost loop.
+            Ok(small) if len <= SMALL_HESSIAN => curvature!(small, |h: u32| h as u8 as usize),
+            _ => curvature!(hess, |h: u32| h as usize),
         }
     }
 

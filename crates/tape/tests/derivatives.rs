@@ -242,6 +242,47 @@ fn rk4_tape_equals_the_hand_written_model_and_its_dual_number_derivatives() {
     assert!((v[1] - (-0.4 + 0.05 * (0.3 - 9.81 * 0.8f64.sin() + 0.04))).abs() < 1e-15);
 }
 
+/// Full DDP's path (`jacobians_keep` at the linearisation, `add_second_order_kept` in each
+/// backward pass) gives the bits of the plain calls, and falls back to them where the kept
+/// sweep is of another point or missing.
+#[test]
+fn kept_sweep_second_order_equals_the_plain_calls_bit_for_bit() {
+    let tape = discretize(&pendulum_ode(), 2, 1, 0.05, Integrator::Rk4).unwrap();
+    let m = TapeDynamics::new(tape, 2, 1).unwrap();
+    let (x, u) = (Vector::<2>::new(0.8, -0.4), Vector::<1>::new(0.3));
+    let lambda = Vector::<2>::new(1.7, -0.6);
+    let plain = |x: &Vector<2>, u: &Vector<1>| {
+        let (mut fx, mut fu) = (Matrix::<2, 2>::zeros(), Matrix::<2, 1>::zeros());
+        Dynamics::<U2, U1>::jacobians(&m, x, u, &mut fx, &mut fu);
+        let mut h = (
+            Matrix::<2, 2>::zeros(),
+            Matrix::<1, 2>::zeros(),
+            Matrix::<1, 1>::zeros(),
+        );
+        Dynamics::<U2, U1>::add_second_order(&m, x, u, &lambda, &mut h.0, &mut h.1, &mut h.2);
+        (fx, fu, h)
+    };
+    let kept = |x: &Vector<2>, u: &Vector<1>, data: &[f64]| {
+        let mut h = (
+            Matrix::<2, 2>::zeros(),
+            Matrix::<1, 2>::zeros(),
+            Matrix::<1, 1>::zeros(),
+        );
+        Dynamics::<U2, U1>::add_second_order_kept(&m, x, u, &lambda, data, &mut h.0, &mut h.1, &mut h.2);
+        h
+    };
+    let (fx, fu, h) = plain(&x, &u);
+    let mut data = Vec::new();
+    assert_eq!(kept(&x, &u, &data), h, "empty data");
+    let (mut gx, mut gu) = (Matrix::<2, 2>::zeros(), Matrix::<2, 1>::zeros());
+    Dynamics::<U2, U1>::jacobians_keep(&m, &x, &u, &mut gx, &mut gu, &mut data);
+    assert_eq!((gx, gu), (fx, fu));
+    assert_eq!(kept(&x, &u, &data), h);
+    assert_eq!(kept(&x, &u, &data), h, "a second backward pass");
+    let x2 = Vector::<2>::new(0.1, 0.2);
+    assert_eq!(kept(&x2, &u, &data), plain(&x2, &u).2, "data of another point");
+}
+
 /// `1/2 sum_i w_i (z_i - r_i)^2 + z_0 z_3` over `(x, u)` = 3 + 1.
 fn quadratic_tape(w: &[f64; 4], r: &[f64; 4]) -> Tape {
     let mut b = TapeBuilder::new(4);

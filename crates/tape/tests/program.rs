@@ -132,6 +132,7 @@ fn check(t: &Tape, z: &[f64], lambda: &[f64], nx: usize, rows: usize) -> std::re
             hessian_rows: rows,
             jacobian_values: false,
             gradient: false,
+            one_sweep: false,
         },
     );
     let mut ws2 = ProgramWorkspace::default();
@@ -156,6 +157,72 @@ fn check(t: &Tape, z: &[f64], lambda: &[f64], nx: usize, rows: usize) -> std::re
     {
         if !(a == b || (a.is_nan() && b.is_nan())) {
             return Err(format!("lean hessian entry {h}: {a} vs {b}"));
+        }
+    }
+    // One forward sweep kept for the second-order terms (what full DDP runs) gives the same
+    // bits, and only at the point it was kept at.
+    let one = Program::with_needs(
+        t,
+        Needs {
+            hessian_rows: rows,
+            jacobian_values: false,
+            gradient: false,
+            one_sweep: true,
+        },
+    );
+    let same = |a: f64, b: f64| a == b || (a.is_nan() && b.is_nan());
+    let mut data = Vec::new();
+    let mut ws3 = ProgramWorkspace::default();
+    if one.second_order_kept(&mut ws3, &data, x, u, lambda) {
+        return Err("a second-order run from empty data".into());
+    }
+    one.jacobian_keep(&mut data, x, u);
+    for (e, &(i, c, slot)) in one.jacobian_entries().iter().enumerate() {
+        let (want, got) = (jac[i as usize][c as usize], one.kept_dot(&data)[slot as usize]);
+        if !same(got, want) {
+            return Err(format!("kept jacobian entry {e}: {got} vs {want}"));
+        }
+    }
+    if one.hessian_pattern() != p.hessian_pattern() {
+        return Err("one-sweep hessian pattern differs".into());
+    }
+    for run in 0..2 {
+        if !one.second_order_kept(&mut ws3, &data, x, u, lambda) {
+            return Err("no second-order run from the kept sweep".into());
+        }
+        for (h, (&a, &b)) in ws3
+            .hess
+            .iter()
+            .zip(&ws2.hess)
+            .take(p.hessian_pattern().len())
+            .enumerate()
+        {
+            if !same(a, b) {
+                return Err(format!("kept hessian entry {h} (run {run}): {a} vs {b}"));
+            }
+        }
+    }
+    one.second_order(&mut ws3, x, u, lambda);
+    for (h, (&a, &b)) in ws3
+        .hess
+        .iter()
+        .zip(&ws2.hess)
+        .take(p.hessian_pattern().len())
+        .enumerate()
+    {
+        if !same(a, b) {
+            return Err(format!("one-sweep hessian entry {h}: {a} vs {b}"));
+        }
+    }
+    if !z.is_empty() {
+        let mut moved = z.to_vec();
+        moved[0] += 1.0;
+        let (mx, mu) = moved.split_at(nx);
+        if one.second_order_kept(&mut ws3, &data, mx, mu, lambda) {
+            return Err("a second-order run from a sweep kept at another point".into());
+        }
+        if lean.second_order_kept(&mut ws3, &data, x, u, lambda) {
+            return Err("a second-order run from another program's sweep".into());
         }
     }
     Ok(())
@@ -319,6 +386,25 @@ proptest! {
         let lambda = &lambda[..t.n_outputs()];
         prop_assert!(check(&t, &z[..n], lambda, nx, rows).is_ok(), "{:?}", check(&t, &z[..n], lambda, nx, rows));
     }
+}
+
+/// A dense Hessian of more than 256 entries (30 inputs) takes the general curvature loop.
+#[test]
+fn a_hessian_of_more_than_256_entries_equals_the_interpreter() {
+    let n = 30;
+    let mut b = TapeBuilder::new(n);
+    let mut sum = b.input(0).unwrap();
+    for k in 1..n {
+        let x = b.input(k).unwrap();
+        sum = b.binary(Binary::Add, sum, x).unwrap();
+    }
+    let sin = b.unary(Unary::Sin, sum).unwrap();
+    let x0 = b.input(0).unwrap();
+    let out = b.binary(Binary::Mul, sin, x0).unwrap();
+    let t = b.finish(&[out, sin]).unwrap();
+    assert!(Program::new(&t, n).hessian_pattern().len() > 256);
+    let z: Vec<f64> = (0..n).map(|k| 0.1 * k as f64 - 1.0).collect();
+    check(&t, &z, &[0.7, -1.3], 20, n).unwrap();
 }
 
 #[test]

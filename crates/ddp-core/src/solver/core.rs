@@ -85,19 +85,27 @@ where
     pub l: Vec<CostDerivatives<NX, NU>>,
     /// Terminal-cost derivatives.
     pub l_n: TerminalDerivatives<NX>,
+    /// Whether the dynamics keep per-knot data for the second-order terms of full DDP
+    /// ([`crate::Dynamics::jacobians_keep`]); set by the solver from its method.
+    pub keep_second_order: bool,
+    /// Each knot's dynamics data ([`crate::Dynamics::jacobians_keep`]), empty until a model keeps some.
+    pub data: Vec<Vec<f64>>,
 }
 
 impl<NX: Dim, NU: Dim> Linearization<NX, NU>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    /// Zero derivatives for `n` knots.
+    /// Zero derivatives for `n` knots. The dynamics' data starts empty (no allocation); a model
+    /// that keeps some grows its knot's once, at the first full-DDP linearisation.
     pub fn new(dims: Dims<NX, NU>, n: usize) -> Self {
         Self {
             fx: vec![dims.xx_zeros(); n],
             fu: vec![dims.xu_zeros(); n],
             l: vec![CostDerivatives::zeros(dims); n],
             l_n: TerminalDerivatives::zeros(dims.nx),
+            keep_second_order: false,
+            data: vec![Vec::new(); n],
         }
     }
 
@@ -105,6 +113,11 @@ where
     /// `(xs, us)`.
     #[inline(never)]
     pub fn compute(&mut self, problem: &Problem<NX, NU>, xs: &[VectorN<NX>], us: &[VectorN<NU>], n: usize) {
+        let data = if self.keep_second_order {
+            &mut self.data[..n]
+        } else {
+            &mut []
+        };
         knots_derivatives(
             &problem.knots()[..n],
             &xs[..n],
@@ -112,6 +125,7 @@ where
             &mut self.fx[..n],
             &mut self.fu[..n],
             &mut self.l[..n],
+            data,
         );
         self.cost_terminal(problem, &xs[n]);
     }
@@ -135,28 +149,32 @@ where
                 let chunk = n.div_ceil(threads.threads);
                 let knots = &problem.knots()[..n];
                 let (fx, fu, l) = (&mut self.fx[..n], &mut self.fu[..n], &mut self.l[..n]);
+                let (data, keep) = (&mut self.data[..n], self.keep_second_order);
                 // The caller works too rather than blocking while `threads` workers run: a
                 // blocked caller must be woken when they finish, and afterwards they spin for
                 // more work on the cores the rest of the iteration runs on.
                 let run = |c: usize,
                            fx: &mut [MatrixN<NX, NX>],
                            fu: &mut [MatrixN<NX, NU>],
-                           l: &mut [CostDerivatives<NX, NU>]| {
+                           l: &mut [CostDerivatives<NX, NU>],
+                           data: &mut [Vec<f64>]| {
                     let r = c * chunk..c * chunk + fx.len();
-                    knots_derivatives(&knots[r.clone()], &xs[r.clone()], &us[r], fx, fu, l);
+                    let data = if keep { data } else { &mut [] };
+                    knots_derivatives(&knots[r.clone()], &xs[r.clone()], &us[r], fx, fu, l, data);
                 };
                 pool.in_place_scope(|scope| {
                     let mut parts = fx
                         .chunks_mut(chunk)
                         .zip(fu.chunks_mut(chunk))
                         .zip(l.chunks_mut(chunk))
+                        .zip(data.chunks_mut(chunk))
                         .enumerate();
                     let first = parts.next();
-                    for (c, ((fx, fu), l)) in parts {
-                        scope.spawn(move |_| run(c, fx, fu, l));
+                    for (c, (((fx, fu), l), data)) in parts {
+                        scope.spawn(move |_| run(c, fx, fu, l, data));
                     }
-                    if let Some((c, ((fx, fu), l))) = first {
-                        run(c, fx, fu, l);
+                    if let Some((c, (((fx, fu), l), data))) = first {
+                        run(c, fx, fu, l, data);
                     }
                 });
                 self.cost_terminal(problem, &xs[n]);
@@ -184,7 +202,8 @@ where
 }
 
 /// The dynamics Jacobians and running-cost derivatives of `knots` at `(xs, us)` (equal lengths),
-/// into `fx`, `fu`, `l`: the one text of the derivative phase, sequential or per thread chunk.
+/// into `fx`, `fu`, `l`, keeping the dynamics' second-order data in `data` where it is not
+/// empty (full DDP): the one text of the derivative phase, sequential or per thread chunk.
 #[inline(always)]
 fn knots_derivatives<NX: Dim, NU: Dim>(
     knots: &[crate::Knot<NX, NU>],
@@ -193,12 +212,16 @@ fn knots_derivatives<NX: Dim, NU: Dim>(
     fx: &mut [MatrixN<NX, NX>],
     fu: &mut [MatrixN<NX, NU>],
     l: &mut [CostDerivatives<NX, NU>],
+    data: &mut [Vec<f64>],
 ) where
     DefaultAllocator: Alloc<NX, NU>,
 {
     for (k, knot) in knots.iter().enumerate() {
         let (x, u) = (&xs[k], &us[k]);
-        knot.dynamics.jacobians(x, u, &mut fx[k], &mut fu[k]);
+        match data.get_mut(k) {
+            Some(d) => knot.dynamics.jacobians_keep(x, u, &mut fx[k], &mut fu[k], d),
+            None => knot.dynamics.jacobians(x, u, &mut fx[k], &mut fu[k]),
+        }
         let l = &mut l[k];
         l.clear();
         knot.cost.add_derivatives(x, u, 1.0, l);
@@ -835,8 +858,10 @@ where
         cost + problem.terminal().value(&t.xs_try[n])
     }
 
-    /// The derivatives along the nominal trajectory (on the derivative threads, if any).
-    pub fn linearize(&mut self, problem: &Problem<NX, NU>) {
+    /// The derivatives along the nominal trajectory (on the derivative threads, if any), with
+    /// the dynamics' data for the second-order terms where `method` is full DDP.
+    pub fn linearize(&mut self, problem: &Problem<NX, NU>, method: Method) {
+        self.lin.keep_second_order = method == Method::Ddp;
         self.lin
             .compute_with(&self.derivative_threads, problem, &self.traj.xs, &self.traj.us, self.n);
     }
@@ -938,8 +963,9 @@ where
                 copy(&mut q.g_xx, &q.q_xx);
                 copy(&mut q.g_ux, &q.q_ux);
                 copy(&mut q.g_uu, &q.q_uu);
+                let data = lin.data.get(k).map_or(&[][..], Vec::as_slice);
                 knot.dynamics
-                    .add_second_order(&xs[k], &us[k], v_x, &mut q.g_xx, &mut q.g_ux, &mut q.g_uu);
+                    .add_second_order_kept(&xs[k], &us[k], v_x, data, &mut q.g_xx, &mut q.g_ux, &mut q.g_uu);
                 // Full DDP adds V_x' . f_xx etc. Far from a minimum that can make the Q block
                 // indefinite, and through Q_xx the indefiniteness would flow into every V_xx
                 // upstream. So after a failed plain pass (`gated`) this knot keeps the

@@ -180,7 +180,7 @@ where
             let mut need_derivatives = true;
             for iteration in 1..=self.settings.max_iterations {
                 if need_derivatives {
-                    self.core.linearize(problem);
+                    self.core.linearize(problem, self.settings.method);
                     need_derivatives = false;
                 }
                 match self.compute_direction(problem) {
@@ -376,7 +376,7 @@ where
     /// derivatives of dynamics and costs along the workspace trajectory.
     pub fn linearize(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
         self.check_problem(problem)?;
-        self.core.linearize(problem);
+        self.core.linearize(problem, self.settings.method);
         Ok(())
     }
 

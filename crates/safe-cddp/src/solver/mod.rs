@@ -1146,7 +1146,7 @@ where
     /// Derivatives of dynamics and costs (the core), of the constraint rows, and in the warm-up
     /// the augmented-Lagrangian terms, along the current trajectory.
     fn linearize_now(&mut self, problem: &Problem<NX, NU>) {
-        self.core.linearize(problem);
+        self.core.linearize(problem, self.settings.method);
         let n = self.core.n;
         let barrier = self.warm.active && self.warm.barrier;
         if barrier {

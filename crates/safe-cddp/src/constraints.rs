@@ -170,8 +170,8 @@ where
         g[0] = self.terms(x).0;
     }
     fn evaluate_along(&self, _t0: usize, xs: &[VectorN<NX>], _us: &[VectorN<NU>], g: &mut [f64], stride: usize) {
-        for (g, x) in g.chunks_mut(stride).zip(xs) {
-            g[0] = self.terms(x).0;
+        for (i, x) in xs.iter().enumerate() {
+            g[i * stride] = self.terms(x).0;
         }
     }
     fn jacobians(

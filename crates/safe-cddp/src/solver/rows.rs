@@ -146,6 +146,15 @@ where
             .map(|s| if s.mixed { 0 } else { s.degree })
             .max()
             .unwrap_or(0);
+        // The control-bound rows' gradients are constant: `C = g_u = +-e_i`, `D = g_x = 0`.
+        let mut c = vec![dims.u_zeros(); rows];
+        for k in 0..cap {
+            for i in 0..dims.nu() {
+                let base = k * m + bound_offset + 2 * i;
+                c[base][i] = 1.0;
+                c[base + 1][i] = -1.0;
+            }
+        }
         Self {
             slots,
             m,
@@ -153,10 +162,10 @@ where
             present: vec![false; rows],
             g: vec![0.0; rows],
             margin: vec![0.0; rows],
-            c: vec![dims.u_zeros(); rows],
+            gu: c.clone(),
+            c,
             d: vec![dims.x_zeros(); rows],
             gx: vec![dims.x_zeros(); rows],
-            gu: vec![dims.u_zeros(); rows],
             lambda: vec![0.0; rows],
             sg: vec![0.0; max_dim],
             sw: vec![0.0; max_dim],
@@ -280,7 +289,8 @@ where
     }
 
     /// The control-bound rows of knot `k`: `u_i - hi_i <= 0` and `lo_i - u_i <= 0` (absent where
-    /// the bound is infinite or there are none).
+    /// the bound is infinite or there are none). Their gradients are constant, set in
+    /// [`Rows::new`].
     fn linearize_bounds(&mut self, k: usize, bounds: Option<&ControlBounds<NU>>, u: &VectorN<NU>) {
         let base = k * self.m + self.bound_offset;
         for i in 0..u.len() {
@@ -289,18 +299,10 @@ where
                 Some(b) => (b.upper[i], b.lower[i]),
                 None => (f64::INFINITY, f64::NEG_INFINITY),
             };
-            for (row, present, g, sign) in [
-                (up, hi_v.is_finite(), u[i] - hi_v, 1.0),
-                (lo, lo_v.is_finite(), lo_v - u[i], -1.0),
-            ] {
-                self.present[row] = present;
-                self.g[row] = g;
-                self.c[row].fill(0.0);
-                self.c[row][i] = sign;
-                self.gu[row].copy_from(&self.c[row]);
-                self.d[row].fill(0.0);
-                self.gx[row].fill(0.0);
-            }
+            self.present[up] = hi_v.is_finite();
+            self.g[up] = u[i] - hi_v;
+            self.present[lo] = lo_v.is_finite();
+            self.g[lo] = lo_v - u[i];
         }
     }
 

@@ -388,11 +388,13 @@ where
         self.warm.rho = self.settings.al_rho_init;
         self.warm.cold = true;
         self.it.started = false;
+        self.it.moved = true;
     }
     /// Sets the initial guess (length `n`, each of size `nu`, finite).
     pub fn set_controls(&mut self, us: &[VectorN<NU>]) -> Result<()> {
         self.core.set_controls(us)?;
         self.it.started = false;
+        self.it.moved = true;
         Ok(())
     }
     /// Receding horizon: drops knot 0 of the solution (controls, states, gains, multipliers,

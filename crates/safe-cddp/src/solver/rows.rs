@@ -342,8 +342,10 @@ where
         for k in 0..n {
             let base = k * m;
             if k + self.max_degree <= n {
-                for i in base..base + self.bound_offset {
-                    f(k, i, self.along[i] + self.margin[i]);
+                let rows = base..base + self.bound_offset;
+                let (g, margin) = (&self.along[rows.clone()], &self.margin[rows.clone()]);
+                for (i, (g, margin)) in rows.zip(g.iter().zip(margin)) {
+                    f(k, i, g + margin);
                 }
             } else {
                 for slot in &self.slots {

@@ -186,6 +186,9 @@ where
         w.cw.fill(0.0);
         w.dw.fill(0.0);
         w.hw.fill(0.0);
+        if w.cand.is_empty() {
+            return 0;
+        }
         let q_scale = q.q_uu_r.amax().recip();
         let mut mw = 0;
         for c in 0..w.cand.len() {

@@ -72,6 +72,20 @@ where
         g_u: &mut [VectorN<NU>],
     );
 
+    /// Writes `g(x_i, u_i)` at the times `t0 + i` of consecutive states `xs` into
+    /// `g[i stride .. i stride + dim()]`; `us` has one control per state, or a single one used
+    /// at every time (the zero control of a state-only constraint). The solver evaluates every
+    /// row along each trial trajectory of the line search with it: one call per constraint
+    /// instead of one per knot. The default calls [`Constraint::evaluate`] per state; an
+    /// override must give the same values bit for bit.
+    fn evaluate_along(&self, t0: usize, xs: &[VectorN<NX>], us: &[VectorN<NU>], g: &mut [f64], stride: usize) {
+        let d = self.dim();
+        for (i, x) in xs.iter().enumerate() {
+            let u = if us.len() == 1 { &us[0] } else { &us[i] };
+            self.evaluate(t0 + i, x, u, &mut g[i * stride..i * stride + d]);
+        }
+    }
+
     /// Adds `sum_i w_i * d^2 g_i / dx^2` to `h_xx` (the constraint curvature of the Lagrangian).
     /// Optional: the default adds nothing, and the solver then uses a Gauss-Newton model of the
     /// constraints.
@@ -122,6 +136,9 @@ where
         g_u: &mut [VectorN<NU>],
     ) {
         (**self).jacobians(t, x, u, g, g_x, g_u)
+    }
+    fn evaluate_along(&self, t0: usize, xs: &[VectorN<NX>], us: &[VectorN<NU>], g: &mut [f64], stride: usize) {
+        (**self).evaluate_along(t0, xs, us, g, stride)
     }
     fn add_hessian(&self, t: usize, x: &VectorN<NX>, u: &VectorN<NU>, w: &[f64], h_xx: &mut MatrixN<NX, NX>) {
         (**self).add_hessian(t, x, u, w, h_xx)

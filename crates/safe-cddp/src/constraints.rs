@@ -169,6 +169,11 @@ where
     fn evaluate(&self, _t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, g: &mut [f64]) {
         g[0] = self.terms(x).0;
     }
+    fn evaluate_along(&self, _t0: usize, xs: &[VectorN<NX>], _us: &[VectorN<NU>], g: &mut [f64], stride: usize) {
+        for (i, x) in xs.iter().enumerate() {
+            g[i * stride] = self.terms(x).0;
+        }
+    }
     fn jacobians(
         &self,
         _t: usize,

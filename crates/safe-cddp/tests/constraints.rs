@@ -107,6 +107,39 @@ fn constraint_derivatives_match_finite_differences() {
 }
 
 #[test]
+fn evaluate_along_equals_evaluate_bit_for_bit() {
+    // The line search evaluates the rows with `evaluate_along` (strided, one call per
+    // constraint); its values must be those of `evaluate` exactly, or the iterates would change.
+    let xs: Vec<Vector<4>> = (0..5)
+        .map(|i| {
+            let s = i as f64;
+            Vector::<4>::new(0.3 * s - 0.2, 0.5 - 0.2 * s, 0.1 * s, 0.7 - 0.3 * s)
+        })
+        .collect();
+    let us: Vec<Vector<2>> = (0..5).map(|i| Vector::<2>::new(0.1 * i as f64, -0.05)).collect();
+    let stride = 7;
+    for (name, c, _) in all_constraints() {
+        let d = c.dim();
+        for us in [&us[..], &us[..1]] {
+            let mut along = vec![f64::NAN; stride * xs.len()];
+            c.evaluate_along(3, &xs, us, &mut along, stride);
+            let mut g = vec![0.0; d];
+            for (i, x) in xs.iter().enumerate() {
+                let u = if us.len() == 1 { &us[0] } else { &us[i] };
+                c.evaluate(3 + i, x, u, &mut g);
+                for r in 0..d {
+                    assert_eq!(
+                        along[i * stride + r].to_bits(),
+                        g[r].to_bits(),
+                        "{name}, state {i}, row {r}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn polygon_signed_distance_is_exact() {
     // The unit square: outside along an edge, outside at a corner, inside.
     let sq =

@@ -118,6 +118,12 @@ struct IterState {
     /// Trust region `Delta` of the forward QPs.
     trust: f64,
     need_linearize: bool,
+    /// The trajectory or the constraints changed since the last linearisation (rather than
+    /// only the multipliers, the barrier parameter or the phase, which leave the derivatives of
+    /// the dynamics and of the constraint rows as they are).
+    moved: bool,
+    /// The state rows' `C`, `D` are chained at the current linearisation.
+    chained: bool,
     started: bool,
     iteration: usize,
     /// The last accepted step of this solve was a warm-up step.
@@ -241,6 +247,8 @@ where
                 violation_max: 0.0,
                 trust: settings.trust_region,
                 need_linearize: true,
+                moved: true,
+                chained: false,
                 started: false,
                 iteration: 0,
                 accepted_in_warm_up: false,
@@ -333,6 +341,7 @@ where
         }
         self.constraints[index] = constraint;
         self.it.need_linearize = true;
+        self.it.moved = true;
         self.it.started = false;
         Ok(())
     }
@@ -359,6 +368,7 @@ where
         }
         self.core.n = n;
         self.it.need_linearize = true;
+        self.it.moved = true;
         self.it.started = false;
         Ok(())
     }
@@ -384,11 +394,13 @@ where
         self.warm.rho = self.settings.al_rho_init;
         self.warm.cold = true;
         self.it.started = false;
+        self.it.moved = true;
     }
     /// Sets the initial guess (length `n`, each of size `nu`, finite).
     pub fn set_controls(&mut self, us: &[VectorN<NU>]) -> Result<()> {
         self.core.set_controls(us)?;
         self.it.started = false;
+        self.it.moved = true;
         Ok(())
     }
     /// Receding horizon: drops knot 0 of the solution (controls, states, gains, multipliers,
@@ -405,6 +417,7 @@ where
         }
         self.it.started = false;
         self.it.need_linearize = true;
+        self.it.moved = true;
     }
     /// States `x_0 .. x_n` of the current trajectory.
     pub fn xs(&self) -> &[VectorN<NX>] {
@@ -588,6 +601,7 @@ where
             self.core.traj.us[..n].clone_from_slice(&p.best[..n]);
             self.core.rollout(problem);
             self.warm.active = false;
+            self.it.moved = true;
             self.linearize_now(problem);
             let _ = self.compute_direction(problem);
             self.warm.lambda.copy_from_slice(&self.rows.lambda);
@@ -737,6 +751,7 @@ where
         self.core.expected.gradient = f64::NAN;
         self.kkt.active = 0;
         self.it.need_linearize = true;
+        self.it.moved = true;
         self.it.started = true;
         self.it.iteration = 0;
         self.it.accepted_in_warm_up = false;
@@ -957,6 +972,7 @@ where
         // The line search evaluated the rows along this trajectory as the trial.
         self.it.violation_max = violation_max;
         self.it.need_linearize = true;
+        self.it.moved = true;
         self.report.iterations += 1;
         self.log(iteration, alpha, true);
         self.core.reg.lower(&s.regularization);
@@ -1021,6 +1037,7 @@ where
         if !self.it.started {
             self.start(problem)?;
         }
+        self.it.moved = true;
         self.linearize_now(problem);
         Ok(())
     }
@@ -1144,26 +1161,37 @@ where
     }
 
     /// Derivatives of dynamics and costs (the core), of the constraint rows, and in the warm-up
-    /// the augmented-Lagrangian terms, along the current trajectory.
+    /// the augmented-Lagrangian terms, along the current trajectory. When only the multipliers,
+    /// the barrier parameter or the phase changed since the last linearisation (the end of an
+    /// inner solve of the warm-up, or its hand-over), the Jacobians of the dynamics and of the
+    /// rows are those of the same trajectory and are kept: only the cost derivatives (which the
+    /// warm-up's terms are added to) and the multiplier-dependent terms are recomputed.
     fn linearize_now(&mut self, problem: &Problem<NX, NU>) {
-        self.core.linearize(problem, self.settings.method);
         let n = self.core.n;
         let barrier = self.warm.active && self.warm.barrier;
         if barrier {
             self.save_slacks();
         }
-        let hessian = self.settings.constraint_hessian && !self.warm.active;
-        self.rows.linearize(
-            &self.constraints,
-            problem.bounds(),
-            &self.core.traj.xs,
-            &self.core.traj.us,
-            &self.core.lin.fx,
-            &self.core.lin.fu,
-            n,
-            !self.warm.active,
-            hessian.then_some(&mut self.kkt.h_con[..]),
-        );
+        if self.it.moved {
+            self.core.linearize(problem, self.settings.method);
+            let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
+            self.rows.linearize(&self.constraints, problem.bounds(), xs, us, n);
+            self.it.chained = false;
+        } else {
+            let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
+            self.core.lin.compute_costs(problem, xs, us, n);
+        }
+        // The warm-up reads the rows at their own time and only the control bounds' `C` (its
+        // working set), so it skips the products `g_x Phi f_u`, `g_x Phi f_x`.
+        if !self.warm.active && !self.it.chained {
+            self.rows.chain(&self.core.lin.fx, &self.core.lin.fu, n);
+            self.it.chained = true;
+        }
+        if self.settings.constraint_hessian && !self.warm.active {
+            let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
+            self.rows
+                .add_hessians(&self.constraints, xs, us, n, &mut self.kkt.h_con);
+        }
         if barrier {
             self.update_barrier_duals();
         }
@@ -1171,6 +1199,7 @@ where
             self.add_warm_up_derivatives();
         }
         self.it.need_linearize = false;
+        self.it.moved = false;
     }
 }
 

@@ -58,10 +58,13 @@ where
     /// Multipliers of the KKT backward pass, eq. (10).
     pub lambda: Vec<f64>,
     pub sg: Vec<f64>,
-    pub sgx: Vec<VectorN<NX>>,
-    pub sgu: Vec<VectorN<NU>>,
     pub sw: Vec<f64>,
     pub zero_u: VectorN<NU>,
+    /// `g` of every row along a trajectory ([`Rows::for_each_row`]).
+    along: Vec<f64>,
+    /// The largest relative degree (0 without state rows): the rows of knots
+    /// `k <= n - max_degree` are all within the horizon.
+    max_degree: usize,
     w: VectorN<NX>,
     w2: VectorN<NX>,
 }
@@ -138,6 +141,20 @@ where
         let max_dim = slots.iter().map(|s| s.dim).max().unwrap_or(0).max(1);
         let m = bound_offset + 2 * dims.nu();
         let rows = cap * m;
+        let max_degree = slots
+            .iter()
+            .map(|s| if s.mixed { 0 } else { s.degree })
+            .max()
+            .unwrap_or(0);
+        // The control-bound rows' gradients are constant: `C = g_u = +-e_i`, `D = g_x = 0`.
+        let mut c = vec![dims.u_zeros(); rows];
+        for k in 0..cap {
+            for i in 0..dims.nu() {
+                let base = k * m + bound_offset + 2 * i;
+                c[base][i] = 1.0;
+                c[base + 1][i] = -1.0;
+            }
+        }
         Self {
             slots,
             m,
@@ -145,45 +162,39 @@ where
             present: vec![false; rows],
             g: vec![0.0; rows],
             margin: vec![0.0; rows],
-            c: vec![dims.u_zeros(); rows],
+            gu: c.clone(),
+            c,
             d: vec![dims.x_zeros(); rows],
             gx: vec![dims.x_zeros(); rows],
-            gu: vec![dims.u_zeros(); rows],
             lambda: vec![0.0; rows],
             sg: vec![0.0; max_dim],
-            sgx: vec![dims.x_zeros(); max_dim],
-            sgu: vec![dims.u_zeros(); max_dim],
             sw: vec![0.0; max_dim],
             zero_u: dims.u_zeros(),
+            along: vec![0.0; rows],
+            max_degree,
             w: dims.x_zeros(),
             w2: dims.x_zeros(),
         }
     }
 
-    /// Linearises every row of knots `0 .. n` along `(xs, us)` (Jacobians `fx`, `fu` of the
-    /// dynamics already computed). With `hessian`, adds `lambda g_xx` of rows with a positive
-    /// multiplier to `h_con` at the row's time. Without `chain`, state rows get `g`, `g_x`, `g_u`
-    /// only and keep stale `C`, `D`: the warm-up reads the rows at their own time and only the
-    /// control bounds' `C` (its working set), so it skips the products `g_x Phi f_u`, `g_x Phi f_x`.
-    #[allow(clippy::too_many_arguments)]
+    /// Linearises every row of knots `0 .. n` along `(xs, us)`: `g`, `g_x`, `g_u`, and `C`, `D`
+    /// of the mixed rows and control bounds; the state rows' `C`, `D` are left to
+    /// [`Rows::chain`]. Clears the multipliers of rows beyond the horizon.
     pub fn linearize(
         &mut self,
         constraints: &[Arc<dyn Constraint<NX, NU>>],
         bounds: Option<&ControlBounds<NU>>,
         xs: &[VectorN<NX>],
         us: &[VectorN<NU>],
-        fx: &[MatrixN<NX, NX>],
-        fu: &[MatrixN<NX, NU>],
         n: usize,
-        chain: bool,
-        h_con: Option<&mut [MatrixN<NX, NX>]>,
     ) {
         let m = self.m;
-        let mut h_con = h_con;
-        if let Some(h) = h_con.as_deref_mut() {
-            h[..=n].iter_mut().for_each(|h| h.fill(0.0));
-        }
         for k in 0..n {
+            // Every row of the knot is within the horizon (set per constraint otherwise).
+            let all = k + self.max_degree <= n;
+            if all {
+                self.present[k * m..k * m + self.bound_offset].fill(true);
+            }
             for (j, slot) in self.slots.iter().enumerate() {
                 let base = k * m + slot.offset;
                 let dim = slot.dim;
@@ -192,39 +203,27 @@ where
                     self.lambda[base..base + dim].iter_mut().for_each(|p| *p = 0.0);
                     continue;
                 };
-                let c = &constraints[j];
                 let (x, u) = if slot.mixed {
                     (&xs[k], &us[k])
                 } else {
                     (&xs[t], &self.zero_u)
                 };
-                c.jacobians(t, x, u, &mut self.sg[..dim], &mut self.sgx[..dim], &mut self.sgu[..dim]);
-                let mut any_lambda = false;
-                for r in 0..dim {
-                    let i = base + r;
-                    self.present[i] = true;
-                    self.g[i] = self.sg[r];
-                    self.gx[i].copy_from(&self.sgx[r]);
-                    self.gu[i].copy_from(&self.sgu[r]);
-                    if slot.mixed {
-                        self.c[i].copy_from(&self.sgu[r]);
-                        self.d[i].copy_from(&self.sgx[r]);
-                    } else if chain {
-                        // g(x_t) with x_t = f(..f(x_k, u_k)..): chain the Jacobians back to knot k.
-                        self.w.copy_from(&self.sgx[r]);
-                        for s in (k + 1..t).rev() {
-                            self.w2.gemv_tr(1.0, &fx[s], &self.w, 0.0);
-                            std::mem::swap(&mut self.w, &mut self.w2);
-                        }
-                        self.c[i].gemv_tr(1.0, &fu[k], &self.w, 0.0);
-                        self.d[i].gemv_tr(1.0, &fx[k], &self.w, 0.0);
-                    }
-                    self.sw[r] = self.lambda[i];
-                    any_lambda |= self.lambda[i] > 0.0;
+                let rows = base..base + dim;
+                constraints[j].jacobians(
+                    t,
+                    x,
+                    u,
+                    &mut self.g[rows.clone()],
+                    &mut self.gx[rows.clone()],
+                    &mut self.gu[rows.clone()],
+                );
+                if !all {
+                    self.present[rows.clone()].fill(true);
                 }
-                if any_lambda {
-                    if let Some(h) = h_con.as_deref_mut() {
-                        c.add_hessian(t, x, u, &self.sw[..dim], &mut h[t]);
+                if slot.mixed {
+                    for i in rows {
+                        self.c[i].copy_from(&self.gu[i]);
+                        self.d[i].copy_from(&self.gx[i]);
                     }
                 }
             }
@@ -232,8 +231,66 @@ where
         }
     }
 
+    /// `C = g_x Phi f_u`, `D = g_x Phi f_x` of the state rows of knots `0 .. n` (after
+    /// [`Rows::linearize`], with the Jacobians `fx`, `fu` of the dynamics along the same
+    /// trajectory): `g(x_t)` with `x_t = f(..f(x_k, u_k)..)`, chained back to knot `k`.
+    pub fn chain(&mut self, fx: &[MatrixN<NX, NX>], fu: &[MatrixN<NX, NU>], n: usize) {
+        let m = self.m;
+        for k in 0..n {
+            for slot in &self.slots {
+                if slot.mixed {
+                    continue;
+                }
+                let Some(t) = slot.time(k, n) else { continue };
+                let base = k * m + slot.offset;
+                for i in base..base + slot.dim {
+                    self.w.copy_from(&self.gx[i]);
+                    for s in (k + 1..t).rev() {
+                        self.w2.gemv_tr(1.0, &fx[s], &self.w, 0.0);
+                        std::mem::swap(&mut self.w, &mut self.w2);
+                    }
+                    self.c[i].gemv_tr(1.0, &fu[k], &self.w, 0.0);
+                    self.d[i].gemv_tr(1.0, &fx[k], &self.w, 0.0);
+                }
+            }
+        }
+    }
+
+    /// Sets `h_con[t]` (`t = 0 ..= n`) to `sum lambda g_xx` of the rows at time `t` with a
+    /// positive multiplier (rows linearised along `(xs, us)`).
+    pub fn add_hessians(
+        &mut self,
+        constraints: &[Arc<dyn Constraint<NX, NU>>],
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        n: usize,
+        h_con: &mut [MatrixN<NX, NX>],
+    ) {
+        let m = self.m;
+        h_con[..=n].iter_mut().for_each(|h| h.fill(0.0));
+        for k in 0..n {
+            for (j, slot) in self.slots.iter().enumerate() {
+                let Some(t) = slot.time(k, n) else { continue };
+                let base = k * m + slot.offset;
+                let dim = slot.dim;
+                let lambda = &self.lambda[base..base + dim];
+                if !lambda.iter().any(|&l| l > 0.0) {
+                    continue;
+                }
+                self.sw[..dim].copy_from_slice(lambda);
+                let (x, u) = if slot.mixed {
+                    (&xs[k], &us[k])
+                } else {
+                    (&xs[t], &self.zero_u)
+                };
+                constraints[j].add_hessian(t, x, u, &self.sw[..dim], &mut h_con[t]);
+            }
+        }
+    }
+
     /// The control-bound rows of knot `k`: `u_i - hi_i <= 0` and `lo_i - u_i <= 0` (absent where
-    /// the bound is infinite or there are none).
+    /// the bound is infinite or there are none). Their gradients are constant, set in
+    /// [`Rows::new`].
     fn linearize_bounds(&mut self, k: usize, bounds: Option<&ControlBounds<NU>>, u: &VectorN<NU>) {
         let base = k * self.m + self.bound_offset;
         for i in 0..u.len() {
@@ -242,23 +299,18 @@ where
                 Some(b) => (b.upper[i], b.lower[i]),
                 None => (f64::INFINITY, f64::NEG_INFINITY),
             };
-            for (row, present, g, sign) in [
-                (up, hi_v.is_finite(), u[i] - hi_v, 1.0),
-                (lo, lo_v.is_finite(), lo_v - u[i], -1.0),
-            ] {
-                self.present[row] = present;
-                self.g[row] = g;
-                self.c[row].fill(0.0);
-                self.c[row][i] = sign;
-                self.gu[row].copy_from(&self.c[row]);
-                self.d[row].fill(0.0);
-                self.gx[row].fill(0.0);
-            }
+            self.present[up] = hi_v.is_finite();
+            self.g[up] = u[i] - hi_v;
+            self.present[lo] = lo_v.is_finite();
+            self.g[lo] = lo_v - u[i];
         }
     }
 
     /// Visits every constraint row of knots `0 .. n` evaluated along `(xs, us)`: calls
-    /// `f(k, row index, g + margin)`.
+    /// `f(k, row index, g + margin)`, knot by knot. Each constraint is evaluated along the whole
+    /// trajectory in one call ([`Constraint::evaluate_along`]) first: the line search evaluates
+    /// every trial, and one virtual call per constraint and knot cost more than the circles'
+    /// arithmetic.
     fn for_each_row(
         &mut self,
         constraints: &[Arc<dyn Constraint<NX, NU>>],
@@ -267,21 +319,42 @@ where
         n: usize,
         mut f: impl FnMut(usize, usize, f64),
     ) {
+        let m = self.m;
+        for (j, slot) in self.slots.iter().enumerate() {
+            // Knots `0 .. count` have their rows' time `t <= n` (see `Slot::time`).
+            let count = if slot.mixed {
+                n
+            } else {
+                (n + 1).saturating_sub(slot.degree).min(n)
+            };
+            if slot.dim == 0 || count == 0 {
+                continue;
+            }
+            let g = &mut self.along[slot.offset..];
+            if slot.mixed {
+                constraints[j].evaluate_along(0, &xs[..count], &us[..count], g, m);
+            } else {
+                let t0 = slot.degree;
+                let zero_u = std::slice::from_ref(&self.zero_u);
+                constraints[j].evaluate_along(t0, &xs[t0..t0 + count], zero_u, g, m);
+            }
+        }
         for k in 0..n {
-            for (j, slot) in self.slots.iter().enumerate() {
-                if slot.dim == 0 {
-                    continue;
+            let base = k * m;
+            if k + self.max_degree <= n {
+                let rows = base..base + self.bound_offset;
+                let (g, margin) = (&self.along[rows.clone()], &self.margin[rows.clone()]);
+                for (i, (g, margin)) in rows.zip(g.iter().zip(margin)) {
+                    f(k, i, g + margin);
                 }
-                let Some(t) = slot.time(k, n) else { continue };
-                let g = &mut self.sg[..slot.dim];
-                if slot.mixed {
-                    constraints[j].evaluate(t, &xs[k], &us[k], g);
-                } else {
-                    constraints[j].evaluate(t, &xs[t], &self.zero_u, g);
-                }
-                let base = k * self.m + slot.offset;
-                for r in 0..slot.dim {
-                    f(k, base + r, g[r] + self.margin[base + r]);
+            } else {
+                for slot in &self.slots {
+                    if slot.time(k, n).is_some() {
+                        let rows = base + slot.offset..base + slot.offset + slot.dim;
+                        for i in rows {
+                            f(k, i, self.along[i] + self.margin[i]);
+                        }
+                    }
                 }
             }
         }

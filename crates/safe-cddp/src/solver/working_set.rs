@@ -46,6 +46,7 @@ where
     hci: VectorN<NU>,
     lambda: VectorN<NU>,
     big_lambda: MatrixN<NU, NX>,
+    /// The rows of the working set (its first `mw` entries; the rest are not read).
     rows_w: Vec<usize>,
 }
 
@@ -162,16 +163,16 @@ where
         let (w, rows) = (&mut *self.kkt, &mut *self.rows);
         let base = k * rows.m;
         w.cand.clear();
-        for i in 0..rows.m {
+        for i in self.first_row..rows.m {
             let idx = base + i;
-            if i >= self.first_row && rows.present[idx] {
+            if rows.present[idx] {
                 let g = rows.g[idx] + rows.margin[idx];
                 if g > -self.eps || (self.keep_positive && rows.lambda[idx] > 0.0) {
                     w.cand.push((g, i));
                 }
             }
-            rows.lambda[idx] = 0.0;
         }
+        rows.lambda[base..base + rows.m].fill(0.0);
         w.cand.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
     }
 
@@ -185,7 +186,9 @@ where
         w.cw.fill(0.0);
         w.dw.fill(0.0);
         w.hw.fill(0.0);
-        w.rows_w.iter_mut().for_each(|r| *r = usize::MAX);
+        if w.cand.is_empty() {
+            return 0;
+        }
         let q_scale = q.q_uu_r.amax().recip();
         let mut mw = 0;
         for c in 0..w.cand.len() {

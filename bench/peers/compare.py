@@ -201,7 +201,9 @@ def casadi_entry(p: Any, plugin: str, guess: Optional[tuple[np.ndarray, np.ndarr
 DDPKIT_METHODS = {"constrained": "ddpkit SafeCddpSolver", "penalty": "ddpkit penalty (AL rounds)"}
 
 
-def ddpkit_constrained_entries(p: Any, methods: tuple[str, ...] = ("constrained", "penalty")) -> list[Entry]:
+def ddpkit_constrained_entries(
+    p: Any, methods: tuple[str, ...] = ("constrained", "penalty"), portfolio_polish: bool = False
+) -> list[Entry]:
     """ddpkit on problem `p` through `solve.py`'s `DdpkitSolver`, one entry per obstacle method,
     every solve cold (zero controls)."""
     sys.path.insert(0, str(PEERS))
@@ -210,7 +212,7 @@ def ddpkit_constrained_entries(p: Any, methods: tuple[str, ...] = ("constrained"
     entries = []
     for obstacles in methods:
         label = DDPKIT_METHODS[obstacles]
-        solver = DdpkitSolver(p, obstacles=obstacles)
+        solver = DdpkitSolver(p, obstacles=obstacles, portfolio_polish=portfolio_polish)
         entry = Entry(label, lambda: (0, float("nan"), None))
 
         def solve(solver: Any = solver, entry: Entry = entry) -> tuple[int, float, Optional[float]]:

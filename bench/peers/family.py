@@ -208,7 +208,11 @@ def _judge(p: BenchProblem, xs: np.ndarray, us: np.ndarray) -> dict[str, Any]:
 
 
 def solve_problem(
-    spec: dict[str, Any], repeats: int = 3, peers: tuple[str, ...] = ("ipopt", "fatrop"), diagnose: bool = False
+    spec: dict[str, Any],
+    repeats: int = 3,
+    peers: tuple[str, ...] = ("ipopt", "fatrop"),
+    diagnose: bool = False,
+    portfolio_polish: bool = False,
 ) -> dict[str, Any]:
     """ddpkit and the CasADi peers on one problem-file dict: per solver the re-scored solution,
     status, iterations and time; then the comparison. With `diagnose`, where ddpkit misses, IPOPT
@@ -216,7 +220,7 @@ def solve_problem(
     from compare import casadi_entry, ddpkit_constrained_entries
 
     p = parse(spec)
-    entries = {"ddpkit": ddpkit_constrained_entries(p, methods=("constrained",))[0]}
+    entries = {"ddpkit": ddpkit_constrained_entries(p, methods=("constrained",), portfolio_polish=portfolio_polish)[0]}
     for plugin in peers:
         e = casadi_entry(p, plugin)
         if e is None:
@@ -464,6 +468,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "--diagnose", action="store_true", help="where ddpkit misses, also start IPOPT from ddpkit's solution (untimed)"
     )
+    ap.add_argument(
+        "--polish", action="store_true", help="ddpkit with SafeCddpSolver(portfolio_polish=True) (default: its defaults)"
+    )
     return ap
 
 
@@ -501,7 +508,9 @@ def main(argv: Optional[list[str]] = None) -> int:
             while True:
                 attempt, spec, rej = first_valid(f, args.seed, j, attempt)
                 rejected += rej
-                rec = solve_problem(spec, repeats=args.repeats, peers=peers, diagnose=args.diagnose)
+                rec = solve_problem(
+                    spec, repeats=args.repeats, peers=peers, diagnose=args.diagnose, portfolio_polish=args.polish
+                )
                 if rec["peers_feasible"]:
                     break
                 rejected.append({"id": spec["name"], "reason": "no peer feasible"})

@@ -99,6 +99,7 @@ class DdpkitSolver:
         weights: tuple[float, ...] = (1e2, 1e3, 1e4, 1e5, 1e6),
         max_rounds: int = 12,
         obstacles: str = "constrained",
+        portfolio_polish: bool = False,
     ) -> None:
         if obstacles not in ("constrained", "penalty"):
             raise ValueError(f"obstacles must be 'constrained' or 'penalty', got {obstacles!r}")
@@ -119,7 +120,9 @@ class DdpkitSolver:
         self.constrained: Optional[ddpkit.SafeCddpSolver] = None
         if len(p.obstacles) > 0 and obstacles == "constrained":
             circles = [ddpkit.Circle(o[:2], float(o[2])) for o in p.obstacles]
-            self.constrained = ddpkit.SafeCddpSolver(self.base, circles, method=method, max_iterations=max_iterations)
+            self.constrained = ddpkit.SafeCddpSolver(
+                self.base, circles, method=method, max_iterations=max_iterations, portfolio_polish=portfolio_polish
+            )
 
     def _penalised(self, w: float, lam: np.ndarray) -> ddpkit.Problem:
         """Problem with the obstacle penalty of weight `w` and multipliers `lam` (N, m): the radii

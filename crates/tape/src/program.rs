@@ -149,6 +149,9 @@ pub struct Program {
     /// Values and partials end at `n_slots`; the constant coefficients of tangent combinations
     /// follow.
     n_slots: usize,
+    /// The power of two at least `s_template.len()` and `n_dot`: the length of `s`, `dot` and
+    /// `bar` in the derivative loops (see [`Slots`]).
+    width: usize,
     /// `s` with the constants and coefficients in place (the rest is written by every run).
     s_template: Vec<f64>,
     instrs: Vec<Instr>,
@@ -227,6 +230,45 @@ fn copy_small(dst: &mut [f64], src: &[f64]) {
 fn grow(v: &mut Vec<f64>, n: usize) {
     if v.len() < n {
         v.resize(n, 0.0);
+    }
+}
+
+/// Scalars indexed by a program's `u32` slots. A fixed-size array of power-of-two length (the
+/// program's `width`, above every slot) is indexed through a mask, which changes no index and
+/// lets the compiler drop the bounds checks of the derivative loops; any other slice is indexed
+/// as usual.
+trait Slots {
+    fn at(&self, i: u32) -> f64;
+    fn at_mut(&mut self, i: u32) -> &mut f64;
+}
+
+impl<const N: usize> Slots for [f64; N] {
+    #[inline(always)]
+    fn at(&self, i: u32) -> f64 {
+        self[i as usize & (N - 1)]
+    }
+    #[inline(always)]
+    fn at_mut(&mut self, i: u32) -> &mut f64 {
+        &mut self[i as usize & (N - 1)]
+    }
+}
+
+impl Slots for [f64] {
+    #[inline(always)]
+    fn at(&self, i: u32) -> f64 {
+        self[i as usize]
+    }
+    #[inline(always)]
+    fn at_mut(&mut self, i: u32) -> &mut f64 {
+        &mut self[i as usize]
+    }
+}
+
+/// `dot[out] = s[p] dot[a] + s[q] dot[b]` for every record of `list`, in order.
+#[inline(always)]
+fn tangent_kernel<A: Slots + ?Sized>(list: &[Fma], s: &A, dot: &mut A) {
+    for f in list {
+        *dot.at_mut(f.out) = s.at(f.p) * dot.at(f.a) + s.at(f.q) * dot.at(f.b);
     }
 }
 
@@ -672,6 +714,8 @@ impl Program {
         let mut s_template = vec![0.0; n_slots + tc.coefs.len()];
         s_template[n..n + consts.len()].copy_from_slice(&consts);
         s_template[n_slots..].copy_from_slice(&tc.coefs);
+        let n_dot = (base + jac_runtime.max(hess_runtime)) as usize;
+        let width = s_template.len().max(n_dot).next_power_of_two();
         Program {
             id: ProgramId(NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed)),
             n_inputs: n,
@@ -684,7 +728,8 @@ impl Program {
             hessian_instrs,
             outputs,
             dot_template: tc.template,
-            n_dot: (base + jac_runtime.max(hess_runtime)) as usize,
+            n_dot,
+            width,
             jacobian,
             jacobian_entries,
             hess_tangents,
@@ -706,8 +751,8 @@ impl Program {
     /// (`ORDER == 2`).
     fn run<const ORDER: u8>(&self, instrs: &[Instr], ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
         if ws.loaded != self.id.0 {
-            grow(&mut ws.s, self.s_template.len());
-            grow(&mut ws.dot, self.n_dot);
+            grow(&mut ws.s, self.width);
+            grow(&mut ws.dot, self.width);
             self.load(&mut ws.s, &mut ws.dot);
             ws.loaded = self.id.0;
         }
@@ -794,14 +839,25 @@ impl Program {
     }
 
     fn tangents(&self, ws: &mut ProgramWorkspace, list: &[Fma]) {
-        self.tangents_in(list, &ws.s, &mut ws.dot[..self.n_dot]);
+        self.tangents_in(list, &ws.s[..self.width], &mut ws.dot[..self.width]);
     }
 
-    #[inline(always)]
+    /// The multiply-adds `list` on `s` and `dot` (`width` entries each).
     fn tangents_in(&self, list: &[Fma], s: &[f64], dot: &mut [f64]) {
-        for f in list {
-            dot[f.out as usize] = s[f.p as usize] * dot[f.a as usize] + s[f.q as usize] * dot[f.b as usize];
+        macro_rules! fixed {
+            ($($w:literal)*) => {
+                match self.width {
+                    $($w => {
+                        if let (Ok(s), Ok(dot)) = (<&[f64; $w]>::try_from(s), <&mut [f64; $w]>::try_from(&mut *dot)) {
+                            return tangent_kernel(list, s, dot);
+                        }
+                    })*
+                    _ => {}
+                }
+            };
         }
+        fixed!(8 16 32 64 128 256 512 1024 2048 4096 8192);
+        tangent_kernel(list, s, dot)
     }
 
     /// The value of output `i` after a run.
@@ -842,13 +898,13 @@ impl Program {
         self.run::<2>(&self.hessian_instrs, ws, x, u);
         self.tangents(ws, &self.hess_tangents);
         let ProgramWorkspace { s, dot, bar, hess, .. } = ws;
-        self.reverse(s, dot, bar, hess, lambda);
+        self.reverse(&s[..self.width], &dot[..self.width], bar, hess, lambda);
     }
 
     /// The layout of a kept sweep ([`Program::jacobian_keep`]): the program's id, then `s`
-    /// (which begins with the point `z`, never overwritten) and `dot`.
+    /// (which begins with the point `z`, never overwritten) and `dot`, `width` entries each.
     fn kept_len(&self) -> usize {
-        1 + self.s_template.len() + self.n_dot
+        1 + 2 * self.width
     }
 
     /// [`Program::jacobian`] into `data` instead of a workspace, keeping the sweep and the
@@ -856,7 +912,7 @@ impl Program {
     /// reverse sweep reads). `data` is resized and loaded once for this program (its first use,
     /// or after another program's); afterwards [`Program::kept_dot`] gives the tangent entries.
     pub fn jacobian_keep(&self, data: &mut Vec<f64>, x: &[f64], u: &[f64]) {
-        let (len, s_len) = (self.kept_len(), self.s_template.len());
+        let (len, s_len) = (self.kept_len(), self.width);
         if data.len() != len || data[0].to_bits() != self.id.0 {
             data.clear();
             data.resize(len, 0.0);
@@ -865,10 +921,11 @@ impl Program {
             self.load(s, dot);
         }
         let (s, dot) = data[1..].split_at_mut(s_len);
+        let n_s = self.s_template.len();
         if self.one_sweep {
-            self.sweep::<2>(&self.jacobian_instrs, s, x, u);
+            self.sweep::<2>(&self.jacobian_instrs, &mut s[..n_s], x, u);
         } else {
-            self.sweep::<1>(&self.jacobian_instrs, s, x, u);
+            self.sweep::<1>(&self.jacobian_instrs, &mut s[..n_s], x, u);
         }
         self.tangents_in(&self.jacobian, s, dot);
     }
@@ -876,7 +933,7 @@ impl Program {
     /// The tangent entries of a sweep [`Program::jacobian_keep`] kept (indexed like
     /// [`ProgramWorkspace::dot`]).
     pub fn kept_dot<'a>(&self, data: &'a [f64]) -> &'a [f64] {
-        &data[1 + self.s_template.len()..]
+        &data[1 + self.width..]
     }
 
     /// [`Program::second_order`] from the sweep [`Program::jacobian_keep`] kept in `data`,
@@ -894,7 +951,7 @@ impl Program {
         if !self.one_sweep || data.len() != self.kept_len() || data[0].to_bits() != self.id.0 {
             return false;
         }
-        let (s, dot) = data[1..].split_at(self.s_template.len());
+        let (s, dot) = data[1..].split_at(self.width);
         let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(p, q)| p.to_bits() == q.to_bits());
         if x.len() + u.len() != n || !same(&s[..x.len()], x) || !same(&s[x.len()..n], u) {
             return false;
@@ -905,38 +962,61 @@ impl Program {
     }
 
     /// The reverse sweep and the curvature terms of [`Program::second_order`] after its
-    /// forward sweep left `s` and `dot`.
-    #[inline(always)]
+    /// forward sweep left `s` and `dot` (`width` entries each).
     fn reverse(&self, s: &[f64], dot: &[f64], bar: &mut Vec<f64>, hess: &mut Vec<f64>, lambda: &[f64]) {
-        grow(bar, self.n_slots);
-        for &v in &self.bar_slots {
-            bar[v as usize] = 0.0;
-        }
-        for (&o, &l) in self.outputs.iter().zip(lambda) {
-            bar[o as usize] += l;
-        }
-        for a in &self.adjoints {
-            let b = bar[a.r as usize];
-            // A zero adjoint adds nothing (never `0 * inf` from a partial).
-            if b != 0.0 {
-                bar[a.arg as usize] += s[a.p as usize] * b;
-            }
-        }
+        grow(bar, self.width);
         let len = self.pattern.len();
         grow(hess, len.max(SMALL_HESSIAN));
         hess[..len].fill(0.0);
+        let bar = &mut bar[..self.width];
+        macro_rules! fixed {
+            ($($w:literal)*) => {
+                match self.width {
+                    $($w => {
+                        if let (Ok(s), Ok(dot), Ok(bar)) = (
+                            <&[f64; $w]>::try_from(s),
+                            <&[f64; $w]>::try_from(dot),
+                            <&mut [f64; $w]>::try_from(&mut *bar),
+                        ) {
+                            return self.reverse_kernel(s, dot, bar, hess, lambda);
+                        }
+                    })*
+                    _ => {}
+                }
+            };
+        }
+        fixed!(8 16 32 64 128 256 512 1024 2048 4096 8192);
+        self.reverse_kernel(s, dot, bar, hess, lambda)
+    }
+
+    #[inline(always)]
+    fn reverse_kernel<A: Slots + ?Sized>(&self, s: &A, dot: &A, bar: &mut A, hess: &mut [f64], lambda: &[f64]) {
+        for &v in &self.bar_slots {
+            *bar.at_mut(v) = 0.0;
+        }
+        for (&o, &l) in self.outputs.iter().zip(lambda) {
+            *bar.at_mut(o) += l;
+        }
+        for a in &self.adjoints {
+            let b = bar.at(a.r);
+            // A zero adjoint adds nothing (never `0 * inf` from a partial).
+            if b != 0.0 {
+                *bar.at_mut(a.arg) += s.at(a.p) * b;
+            }
+        }
+        let len = self.pattern.len();
         macro_rules! curvature {
             ($hess:expr, $at:expr) => {
                 for c in &self.curvature {
                     // A node without adjoint, or without curvature here, adds nothing (never
                     // `0 * inf`).
-                    let (b, k) = (bar[c.r as usize], s[c.k as usize]);
+                    let (b, k) = (bar.at(c.r), s.at(c.k));
                     if b == 0.0 || k == 0.0 {
                         continue;
                     }
                     let coef = b * k;
                     for &(h, u, w) in &self.terms[c.terms.0 as usize..c.terms.1 as usize] {
-                        $hess[$at(h)] += coef * dot[u as usize] * dot[w as usize];
+                        $hess[$at(h)] += coef * dot.at(u) * dot.at(w);
                     }
                 }
             };

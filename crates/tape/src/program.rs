@@ -165,11 +165,11 @@ pub struct Program {
     dot_template: Vec<f64>,
     n_dot: usize,
     /// Every node's tangent.
-    jacobian: Vec<Fma>,
+    jacobian: Tangents,
     /// `(output, input, dot slot)` for every structurally non-zero Jacobian entry.
     jacobian_entries: Vec<(u32, u32, u32)>,
     /// The tangents the curvature terms read, and what they depend on.
-    hess_tangents: Vec<Fma>,
+    hess_tangents: Tangents,
     adjoints: Vec<Adjoint>,
     /// Slots whose adjoint the reverse sweep accumulates (cleared before it).
     bar_slots: Vec<u32>,
@@ -264,11 +264,123 @@ impl Slots for [f64] {
     }
 }
 
-/// `dot[out] = s[p] dot[a] + s[q] dot[b]` for every record of `list`, in order.
+/// `dot[out] = s[p] dot[a]`: a tangent entry that only one argument's tangent has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Scale {
+    out: u32,
+    p: u32,
+    a: u32,
+}
+
+/// A list of [`Fma`] records with the one-term ones (`s[q] dot[b]` the constant `0 * 0`) as
+/// [`Scale`]s, which skip the second product: `runs` alternates a count of `two` records and a
+/// count of `one` records. The records are reordered (each still after every record whose entry
+/// it reads or overwrites, and before every one that overwrites an entry it reads) so that the
+/// runs are long.
+#[derive(Debug, Clone, PartialEq, Default)]
+struct Tangents {
+    two: Vec<Fma>,
+    one: Vec<Scale>,
+    runs: Vec<(u32, u32)>,
+}
+
+impl Tangents {
+    /// `zero`: the slot of the constant 0 in `s`.
+    fn new(list: &[Fma], zero: u32) -> Self {
+        let single = |f: &Fma| f.q == zero && f.b == DOT_ZERO;
+        // Dependencies: read after write, write after write, write after read.
+        let len = list
+            .iter()
+            .map(|f| f.out.max(f.a).max(f.b) as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut writer: Vec<Option<usize>> = vec![None; len];
+        let mut readers: Vec<Vec<usize>> = vec![Vec::new(); len];
+        let mut after: Vec<Vec<usize>> = vec![Vec::new(); list.len()];
+        let mut waiting = vec![0usize; list.len()];
+        for (i, f) in list.iter().enumerate() {
+            let mut deps: Vec<usize> = [f.a, f.b, f.out]
+                .iter()
+                .filter_map(|&x| writer[x as usize])
+                .chain(readers[f.out as usize].iter().copied())
+                .filter(|&j| j != i)
+                .collect();
+            deps.sort_unstable();
+            deps.dedup();
+            waiting[i] = deps.len();
+            for j in deps {
+                after[j].push(i);
+            }
+            for x in [f.a, f.b] {
+                readers[x as usize].push(i);
+            }
+            writer[f.out as usize] = Some(i);
+            readers[f.out as usize].clear();
+        }
+        // Kahn's topological sort, emitting every ready record of one kind (lowest index first)
+        // before switching to the other kind.
+        use std::cmp::Reverse;
+        use std::collections::BinaryHeap;
+        let mut ready: [BinaryHeap<Reverse<usize>>; 2] = [BinaryHeap::new(), BinaryHeap::new()];
+        for (i, f) in list.iter().enumerate() {
+            if waiting[i] == 0 {
+                ready[single(f) as usize].push(Reverse(i));
+            }
+        }
+        let mut order = Vec::with_capacity(list.len());
+        let mut kind = 0;
+        while order.len() < list.len() {
+            if ready[kind].is_empty() {
+                kind = 1 - kind;
+            }
+            while let Some(Reverse(i)) = ready[kind].pop() {
+                order.push(i);
+                for &j in &after[i] {
+                    waiting[j] -= 1;
+                    if waiting[j] == 0 {
+                        ready[single(&list[j]) as usize].push(Reverse(j));
+                    }
+                }
+            }
+        }
+        let mut t = Tangents::default();
+        for f in order.iter().map(|&i| &list[i]) {
+            let single = single(f);
+            match t.runs.last_mut() {
+                Some((_, k)) if single => *k += 1,
+                Some((n, 0)) if !single => *n += 1,
+                _ => t.runs.push(if single { (0, 1) } else { (1, 0) }),
+            }
+            if single {
+                t.one.push(Scale {
+                    out: f.out,
+                    p: f.p,
+                    a: f.a,
+                });
+            } else {
+                t.two.push(*f);
+            }
+        }
+        t
+    }
+}
+
+/// Runs `list` in order: `dot[out] = s[p] dot[a] + s[q] dot[b]` for its two-term records and
+/// `dot[out] = s[p] dot[a]` for its one-term ones.
 #[inline(always)]
-fn tangent_kernel<A: Slots + ?Sized>(list: &[Fma], s: &A, dot: &mut A) {
-    for f in list {
-        *dot.at_mut(f.out) = s.at(f.p) * dot.at(f.a) + s.at(f.q) * dot.at(f.b);
+fn tangent_kernel<A: Slots + ?Sized>(list: &Tangents, s: &A, dot: &mut A) {
+    let (mut two, mut one) = (&list.two[..], &list.one[..]);
+    for &(n2, n1) in &list.runs {
+        let (run, rest) = two.split_at(n2 as usize);
+        two = rest;
+        for f in run {
+            *dot.at_mut(f.out) = s.at(f.p) * dot.at(f.a) + s.at(f.q) * dot.at(f.b);
+        }
+        let (run, rest) = one.split_at(n1 as usize);
+        one = rest;
+        for f in run {
+            *dot.at_mut(f.out) = s.at(f.p) * dot.at(f.a);
+        }
     }
 }
 
@@ -730,9 +842,9 @@ impl Program {
             dot_template: tc.template,
             n_dot,
             width,
-            jacobian,
+            jacobian: Tangents::new(&jacobian, off(ZERO)),
             jacobian_entries,
-            hess_tangents,
+            hess_tangents: Tangents::new(&hess_tangents, off(ZERO)),
             adjoints,
             bar_slots,
             curvature,
@@ -838,12 +950,12 @@ impl Program {
         }
     }
 
-    fn tangents(&self, ws: &mut ProgramWorkspace, list: &[Fma]) {
+    fn tangents(&self, ws: &mut ProgramWorkspace, list: &Tangents) {
         self.tangents_in(list, &ws.s[..self.width], &mut ws.dot[..self.width]);
     }
 
     /// The multiply-adds `list` on `s` and `dot` (`width` entries each).
-    fn tangents_in(&self, list: &[Fma], s: &[f64], dot: &mut [f64]) {
+    fn tangents_in(&self, list: &Tangents, s: &[f64], dot: &mut [f64]) {
         macro_rules! fixed {
             ($($w:literal)*) => {
                 match self.width {

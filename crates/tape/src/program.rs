@@ -95,13 +95,19 @@ struct Adjoint {
 }
 
 /// The curvature of one nonlinear node in one pair of arguments: `c = bar[r] * s[k]`, then
-/// `hess[h] += c * dot[u] * dot[w]` for its terms.
+/// `hess[h] += c * dot[u] * dot[w]` for its terms and `hess[h] += c * (dot[u] * dot[w] +
+/// dot[u2] * dot[w2])` for its pairs (two terms of one entry, as the mixed partial of a product
+/// `a b` gives `da db' + db da'`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Curvature {
     r: u32,
     k: u32,
     terms: (u32, u32),
+    pairs: (u32, u32),
 }
+
+/// Two curvature terms of one Hessian entry `h`: `(h, u, w, u2, w2)`.
+type Pair = (u32, u32, u32, u32, u32);
 
 /// Slots of the fixed constants in `s`, right after the inputs.
 const ZERO: u32 = 0;
@@ -176,6 +182,7 @@ pub struct Program {
     curvature: Vec<Curvature>,
     /// `(h, u, w)`: `hess[h] += c * dot[u] * dot[w]`.
     terms: Vec<(u32, u32, u32)>,
+    pairs: Vec<Pair>,
     /// `(row, col)` of `hess[h]`, `row >= col`, sorted.
     pattern: Vec<(u32, u32)>,
 }
@@ -732,6 +739,7 @@ impl Program {
                 r,
                 k,
                 terms: (start, terms.len() as u32),
+                pairs: (0, 0),
             });
         }
         // Adjoints are needed at curved nodes, at the inputs (the gradient) and on every path
@@ -778,6 +786,31 @@ impl Program {
         for t in &mut terms {
             *t = (t.0, fix_dot(t.1), fix_dot(t.2));
         }
+        // Terms of one node and one entry, two at a time.
+        let mut singles = Vec::with_capacity(terms.len());
+        let mut pairs: Vec<Pair> = Vec::new();
+        for c in &mut curvature {
+            let mut own: Vec<(u32, u32, u32)> = terms[c.terms.0 as usize..c.terms.1 as usize].to_vec();
+            own.sort_by_key(|t| t.0);
+            let start = (singles.len() as u32, pairs.len() as u32);
+            let mut i = 0;
+            while i < own.len() {
+                let (h, u, w) = own[i];
+                match own.get(i + 1) {
+                    Some(&(h2, u2, w2)) if h2 == h => {
+                        pairs.push((h, u, w, u2, w2));
+                        i += 2;
+                    }
+                    _ => {
+                        singles.push((h, u, w));
+                        i += 1;
+                    }
+                }
+            }
+            c.terms = (start.0, singles.len() as u32);
+            c.pairs = (start.1, pairs.len() as u32);
+        }
+        let terms = singles;
         // The instructions each sweep needs: owners of the slots it reads, and their arguments.
         let mut owner = vec![u32::MAX; n_slots];
         for (i, ins) in instrs.iter().enumerate() {
@@ -849,6 +882,7 @@ impl Program {
             bar_slots,
             curvature,
             terms,
+            pairs,
             pattern,
         }
     }
@@ -1129,6 +1163,9 @@ impl Program {
                     let coef = b * k;
                     for &(h, u, w) in &self.terms[c.terms.0 as usize..c.terms.1 as usize] {
                         $hess[$at(h)] += coef * dot.at(u) * dot.at(w);
+                    }
+                    for &(h, u, w, u2, w2) in &self.pairs[c.pairs.0 as usize..c.pairs.1 as usize] {
+                        $hess[$at(h)] += coef * (dot.at(u) * dot.at(w) + dot.at(u2) * dot.at(w2));
                     }
                 }
             };

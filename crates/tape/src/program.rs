@@ -391,6 +391,73 @@ fn tangent_kernel<A: Slots + ?Sized>(list: &Tangents, s: &A, dot: &mut A) {
     }
 }
 
+/// The instructions on `s` (see [`Program::run`]).
+#[inline(always)]
+fn sweep_kernel<const ORDER: u8, A: Slots + ?Sized>(instrs: &[Instr], s: &mut A) {
+    for ins in instrs {
+        let (a, b, d) = (ins.a, ins.b, ins.d);
+        let v = match ins.kind {
+            Kind::Add => s.at(a) + s.at(b),
+            Kind::Sub => s.at(a) - s.at(b),
+            Kind::Mul => s.at(a) * s.at(b),
+            Kind::Neg => -s.at(a),
+            Kind::AddScaled => s.at(a) + s.at(d) * s.at(b),
+            Kind::SubScaled => s.at(a) - s.at(d) * s.at(b),
+            Kind::SinCos => {
+                let (sn, cs) = s.at(a).sin_cos();
+                *s.at_mut(b) = cs;
+                if ORDER >= 1 {
+                    *s.at_mut(d) = -sn;
+                }
+                if ORDER == 2 {
+                    *s.at_mut(d + 1) = -cs;
+                }
+                sn
+            }
+            Kind::Unary(op) => {
+                if ORDER == 0 {
+                    op.value(s.at(a))
+                } else {
+                    let (v, p, pp) = op.partials(s.at(a));
+                    *s.at_mut(d) = p;
+                    if ORDER == 2 {
+                        *s.at_mut(d + 1) = pp;
+                    }
+                    v
+                }
+            }
+            Kind::Powc(p) => {
+                if ORDER == 0 {
+                    powc_value(s.at(a), p)
+                } else {
+                    let (v, dp, dpp) = powc_partials(s.at(a), p);
+                    *s.at_mut(d) = dp;
+                    if ORDER == 2 {
+                        *s.at_mut(d + 1) = dpp;
+                    }
+                    v
+                }
+            }
+            Kind::Binary(op) => {
+                if ORDER == 0 {
+                    op.value(s.at(a), s.at(b))
+                } else {
+                    let p = op.partials(s.at(a), s.at(b));
+                    *s.at_mut(d) = p.a;
+                    *s.at_mut(d + 1) = p.b;
+                    if ORDER == 2 {
+                        *s.at_mut(d + 2) = p.aa;
+                        *s.at_mut(d + 3) = p.ab;
+                        *s.at_mut(d + 4) = p.bb;
+                    }
+                    p.v
+                }
+            }
+        };
+        *s.at_mut(ins.dst) = v;
+    }
+}
+
 /// Which second partials of an operation can be non-zero: `(aa, ab, bb)`.
 fn curvature_kinds(node: &Node) -> (bool, bool, bool) {
     match *node {
@@ -902,7 +969,7 @@ impl Program {
             self.load(&mut ws.s, &mut ws.dot);
             ws.loaded = self.id.0;
         }
-        self.sweep::<ORDER>(instrs, &mut ws.s[..self.s_template.len()], x, u);
+        self.sweep::<ORDER>(instrs, &mut ws.s[..self.width], x, u);
     }
 
     /// Writes the constants, coefficients and constant tangent entries (nothing else writes
@@ -914,74 +981,26 @@ impl Program {
         dot[..self.dot_template.len()].copy_from_slice(&self.dot_template);
     }
 
-    /// [`Program::run`] on a loaded `s` (`s_template.len()` entries).
+    /// [`Program::run`] on a loaded `s` (`width` entries).
     #[inline(always)]
     fn sweep<const ORDER: u8>(&self, instrs: &[Instr], s: &mut [f64], x: &[f64], u: &[f64]) {
         let n = self.n_inputs;
         copy_small(&mut s[..x.len()], x);
         copy_small(&mut s[x.len()..n], u);
-        for ins in instrs {
-            let (a, b, d) = (ins.a as usize, ins.b as usize, ins.d as usize);
-            let v = match ins.kind {
-                Kind::Add => s[a] + s[b],
-                Kind::Sub => s[a] - s[b],
-                Kind::Mul => s[a] * s[b],
-                Kind::Neg => -s[a],
-                Kind::AddScaled => s[a] + s[d] * s[b],
-                Kind::SubScaled => s[a] - s[d] * s[b],
-                Kind::SinCos => {
-                    let (sn, cs) = s[a].sin_cos();
-                    s[b] = cs;
-                    if ORDER >= 1 {
-                        s[d] = -sn;
-                    }
-                    if ORDER == 2 {
-                        s[d + 1] = -cs;
-                    }
-                    sn
-                }
-                Kind::Unary(op) => {
-                    if ORDER == 0 {
-                        op.value(s[a])
-                    } else {
-                        let (v, p, pp) = op.partials(s[a]);
-                        s[d] = p;
-                        if ORDER == 2 {
-                            s[d + 1] = pp;
+        macro_rules! fixed {
+            ($($w:literal)*) => {
+                match self.width {
+                    $($w => {
+                        if let Ok(s) = <&mut [f64; $w]>::try_from(&mut *s) {
+                            return sweep_kernel::<ORDER, _>(instrs, s);
                         }
-                        v
-                    }
-                }
-                Kind::Powc(p) => {
-                    if ORDER == 0 {
-                        powc_value(s[a], p)
-                    } else {
-                        let (v, dp, dpp) = powc_partials(s[a], p);
-                        s[d] = dp;
-                        if ORDER == 2 {
-                            s[d + 1] = dpp;
-                        }
-                        v
-                    }
-                }
-                Kind::Binary(op) => {
-                    if ORDER == 0 {
-                        op.value(s[a], s[b])
-                    } else {
-                        let p = op.partials(s[a], s[b]);
-                        s[d] = p.a;
-                        s[d + 1] = p.b;
-                        if ORDER == 2 {
-                            s[d + 2] = p.aa;
-                            s[d + 3] = p.ab;
-                            s[d + 4] = p.bb;
-                        }
-                        p.v
-                    }
+                    })*
+                    _ => {}
                 }
             };
-            s[ins.dst as usize] = v;
         }
+        fixed!(8 16 32 64 128 256 512 1024 2048 4096 8192);
+        sweep_kernel::<ORDER, _>(instrs, s)
     }
 
     fn tangents(&self, ws: &mut ProgramWorkspace, list: &Tangents) {
@@ -1067,11 +1086,10 @@ impl Program {
             self.load(s, dot);
         }
         let (s, dot) = data[1..].split_at_mut(s_len);
-        let n_s = self.s_template.len();
         if self.one_sweep {
-            self.sweep::<2>(&self.jacobian_instrs, &mut s[..n_s], x, u);
+            self.sweep::<2>(&self.jacobian_instrs, s, x, u);
         } else {
-            self.sweep::<1>(&self.jacobian_instrs, &mut s[..n_s], x, u);
+            self.sweep::<1>(&self.jacobian_instrs, s, x, u);
         }
         self.tangents_in(&self.jacobian, s, dot);
     }

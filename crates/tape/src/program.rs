@@ -37,6 +37,11 @@
 //!   [`Program::jacobian_keep`] leaves them in the knot's data and
 //!   [`Program::second_order_kept`] runs only the reverse sweep and the curvature terms.
 //!
+//! - **No bounds checks in the loops.** `s`, `dot` and `bar` are padded to a power of two (the
+//!   program's width) and the loops index them as fixed-size arrays through a mask, which
+//!   changes no index (every slot is below the width) and lets the compiler prove each access in
+//!   bounds; a program wider than the largest fixed size runs the same loops with checks.
+//!
 //! Scratch is a [`ProgramWorkspace`] that grows to the largest program it has run and then
 //! allocates nothing.
 

@@ -182,8 +182,9 @@ pub struct Program {
     /// The tangents the curvature terms read, and what they depend on.
     hess_tangents: Tangents,
     adjoints: Vec<Adjoint>,
-    /// Slots whose adjoint the reverse sweep accumulates (cleared before it).
-    bar_slots: Vec<u32>,
+    /// One past the last slot whose adjoint the reverse sweep accumulates: `bar[..bar_len]` is
+    /// cleared before it (one contiguous fill, cheaper than clearing only those slots).
+    bar_len: usize,
     curvature: Vec<Curvature>,
     /// `(h, u, w)`: `hess[h] += c * dot[u] * dot[w]`.
     terms: Vec<(u32, u32, u32)>,
@@ -252,6 +253,8 @@ fn grow(v: &mut Vec<f64>, n: usize) {
 trait Slots {
     fn at(&self, i: u32) -> f64;
     fn at_mut(&mut self, i: u32) -> &mut f64;
+    /// Sets the first `n` entries to zero.
+    fn clear(&mut self, n: usize);
 }
 
 impl<const N: usize> Slots for [f64; N] {
@@ -263,6 +266,10 @@ impl<const N: usize> Slots for [f64; N] {
     fn at_mut(&mut self, i: u32) -> &mut f64 {
         &mut self[i as usize & (N - 1)]
     }
+    #[inline(always)]
+    fn clear(&mut self, n: usize) {
+        self[..n].fill(0.0);
+    }
 }
 
 impl Slots for [f64] {
@@ -273,6 +280,10 @@ impl Slots for [f64] {
     #[inline(always)]
     fn at_mut(&mut self, i: u32) -> &mut f64 {
         &mut self[i as usize]
+    }
+    #[inline(always)]
+    fn clear(&mut self, n: usize) {
+        self[..n].fill(0.0);
     }
 }
 
@@ -839,7 +850,7 @@ impl Program {
                 }
             }
         }
-        let bar_slots = (0..n_values as u32).filter(|&v| need_bar[v as usize]).collect();
+        let bar_len = need_bar.iter().rposition(|&b| b).map_or(0, |v| v + 1);
         // Runtime tangent entries follow the template.
         let base = tc.template.len() as u32;
         let fix_dot = |x: u32| if x & RUNTIME != 0 { base + (x & !RUNTIME) } else { x };
@@ -951,7 +962,7 @@ impl Program {
             jacobian_entries,
             hess_tangents: Tangents::new(&hess_tangents, off(ZERO)),
             adjoints,
-            bar_slots,
+            bar_len,
             curvature,
             terms,
             pairs,
@@ -1160,9 +1171,7 @@ impl Program {
 
     #[inline(always)]
     fn reverse_kernel<A: Slots + ?Sized>(&self, s: &A, dot: &A, bar: &mut A, hess: &mut [f64], lambda: &[f64]) {
-        for &v in &self.bar_slots {
-            *bar.at_mut(v) = 0.0;
-        }
+        bar.clear(self.bar_len);
         for (&o, &l) in self.outputs.iter().zip(lambda) {
             *bar.at_mut(o) += l;
         }

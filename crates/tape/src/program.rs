@@ -37,6 +37,11 @@
 //!   [`Program::jacobian_keep`] leaves them in the knot's data and
 //!   [`Program::second_order_kept`] runs only the reverse sweep and the curvature terms.
 //!
+//! - **No bounds checks in the loops.** `s`, `dot` and `bar` are padded to a power of two (the
+//!   program's width) and the loops index them as fixed-size arrays through a mask, which
+//!   changes no index (every slot is below the width) and lets the compiler prove each access in
+//!   bounds; a program wider than the largest fixed size runs the same loops with checks.
+//!
 //! Scratch is a [`ProgramWorkspace`] that grows to the largest program it has run and then
 //! allocates nothing.
 
@@ -95,13 +100,19 @@ struct Adjoint {
 }
 
 /// The curvature of one nonlinear node in one pair of arguments: `c = bar[r] * s[k]`, then
-/// `hess[h] += c * dot[u] * dot[w]` for its terms.
+/// `hess[h] += c * dot[u] * dot[w]` for its terms and `hess[h] += c * (dot[u] * dot[w] +
+/// dot[u2] * dot[w2])` for its pairs (two terms of one entry, as the mixed partial of a product
+/// `a b` gives `da db' + db da'`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Curvature {
     r: u32,
     k: u32,
     terms: (u32, u32),
+    pairs: (u32, u32),
 }
+
+/// Two curvature terms of one Hessian entry `h`: `(h, u, w, u2, w2)`.
+type Pair = (u32, u32, u32, u32, u32);
 
 /// Slots of the fixed constants in `s`, right after the inputs.
 const ZERO: u32 = 0;
@@ -149,6 +160,9 @@ pub struct Program {
     /// Values and partials end at `n_slots`; the constant coefficients of tangent combinations
     /// follow.
     n_slots: usize,
+    /// The power of two at least `s_template.len()` and `n_dot`: the length of `s`, `dot` and
+    /// `bar` in the derivative loops (see [`Slots`]).
+    width: usize,
     /// `s` with the constants and coefficients in place (the rest is written by every run).
     s_template: Vec<f64>,
     instrs: Vec<Instr>,
@@ -162,17 +176,19 @@ pub struct Program {
     dot_template: Vec<f64>,
     n_dot: usize,
     /// Every node's tangent.
-    jacobian: Vec<Fma>,
+    jacobian: Tangents,
     /// `(output, input, dot slot)` for every structurally non-zero Jacobian entry.
     jacobian_entries: Vec<(u32, u32, u32)>,
     /// The tangents the curvature terms read, and what they depend on.
-    hess_tangents: Vec<Fma>,
+    hess_tangents: Tangents,
     adjoints: Vec<Adjoint>,
-    /// Slots whose adjoint the reverse sweep accumulates (cleared before it).
-    bar_slots: Vec<u32>,
+    /// One past the last slot whose adjoint the reverse sweep accumulates: `bar[..bar_len]` is
+    /// cleared before it (one contiguous fill, cheaper than clearing only those slots).
+    bar_len: usize,
     curvature: Vec<Curvature>,
     /// `(h, u, w)`: `hess[h] += c * dot[u] * dot[w]`.
     terms: Vec<(u32, u32, u32)>,
+    pairs: Vec<Pair>,
     /// `(row, col)` of `hess[h]`, `row >= col`, sorted.
     pattern: Vec<(u32, u32)>,
 }
@@ -227,6 +243,234 @@ fn copy_small(dst: &mut [f64], src: &[f64]) {
 fn grow(v: &mut Vec<f64>, n: usize) {
     if v.len() < n {
         v.resize(n, 0.0);
+    }
+}
+
+/// Scalars indexed by a program's `u32` slots. A fixed-size array of power-of-two length (the
+/// program's `width`, above every slot) is indexed through a mask, which changes no index and
+/// lets the compiler drop the bounds checks of the derivative loops; any other slice is indexed
+/// as usual.
+trait Slots {
+    fn at(&self, i: u32) -> f64;
+    fn at_mut(&mut self, i: u32) -> &mut f64;
+    /// Sets the first `n` entries to zero.
+    fn clear(&mut self, n: usize);
+}
+
+impl<const N: usize> Slots for [f64; N] {
+    #[inline(always)]
+    fn at(&self, i: u32) -> f64 {
+        self[i as usize & (N - 1)]
+    }
+    #[inline(always)]
+    fn at_mut(&mut self, i: u32) -> &mut f64 {
+        &mut self[i as usize & (N - 1)]
+    }
+    #[inline(always)]
+    fn clear(&mut self, n: usize) {
+        self[..n].fill(0.0);
+    }
+}
+
+impl Slots for [f64] {
+    #[inline(always)]
+    fn at(&self, i: u32) -> f64 {
+        self[i as usize]
+    }
+    #[inline(always)]
+    fn at_mut(&mut self, i: u32) -> &mut f64 {
+        &mut self[i as usize]
+    }
+    #[inline(always)]
+    fn clear(&mut self, n: usize) {
+        self[..n].fill(0.0);
+    }
+}
+
+/// `dot[out] = s[p] dot[a]`: a tangent entry that only one argument's tangent has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Scale {
+    out: u32,
+    p: u32,
+    a: u32,
+}
+
+/// A list of [`Fma`] records with the one-term ones (`s[q] dot[b]` the constant `0 * 0`) as
+/// [`Scale`]s, which skip the second product: `runs` alternates a count of `two` records and a
+/// count of `one` records. The records are reordered (each still after every record whose entry
+/// it reads or overwrites, and before every one that overwrites an entry it reads) so that the
+/// runs are long.
+#[derive(Debug, Clone, PartialEq, Default)]
+struct Tangents {
+    two: Vec<Fma>,
+    one: Vec<Scale>,
+    runs: Vec<(u32, u32)>,
+}
+
+impl Tangents {
+    /// `zero`: the slot of the constant 0 in `s`.
+    fn new(list: &[Fma], zero: u32) -> Self {
+        let single = |f: &Fma| f.q == zero && f.b == DOT_ZERO;
+        // Dependencies: read after write, write after write, write after read.
+        let len = list
+            .iter()
+            .map(|f| f.out.max(f.a).max(f.b) as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut writer: Vec<Option<usize>> = vec![None; len];
+        let mut readers: Vec<Vec<usize>> = vec![Vec::new(); len];
+        let mut after: Vec<Vec<usize>> = vec![Vec::new(); list.len()];
+        let mut waiting = vec![0usize; list.len()];
+        for (i, f) in list.iter().enumerate() {
+            let mut deps: Vec<usize> = [f.a, f.b, f.out]
+                .iter()
+                .filter_map(|&x| writer[x as usize])
+                .chain(readers[f.out as usize].iter().copied())
+                .filter(|&j| j != i)
+                .collect();
+            deps.sort_unstable();
+            deps.dedup();
+            waiting[i] = deps.len();
+            for j in deps {
+                after[j].push(i);
+            }
+            for x in [f.a, f.b] {
+                readers[x as usize].push(i);
+            }
+            writer[f.out as usize] = Some(i);
+            readers[f.out as usize].clear();
+        }
+        // Kahn's topological sort, emitting every ready record of one kind (lowest index first)
+        // before switching to the other kind.
+        use std::cmp::Reverse;
+        use std::collections::BinaryHeap;
+        let mut ready: [BinaryHeap<Reverse<usize>>; 2] = [BinaryHeap::new(), BinaryHeap::new()];
+        for (i, f) in list.iter().enumerate() {
+            if waiting[i] == 0 {
+                ready[single(f) as usize].push(Reverse(i));
+            }
+        }
+        let mut order = Vec::with_capacity(list.len());
+        let mut kind = 0;
+        while order.len() < list.len() {
+            if ready[kind].is_empty() {
+                kind = 1 - kind;
+            }
+            while let Some(Reverse(i)) = ready[kind].pop() {
+                order.push(i);
+                for &j in &after[i] {
+                    waiting[j] -= 1;
+                    if waiting[j] == 0 {
+                        ready[single(&list[j]) as usize].push(Reverse(j));
+                    }
+                }
+            }
+        }
+        let mut t = Tangents::default();
+        for f in order.iter().map(|&i| &list[i]) {
+            let single = single(f);
+            match t.runs.last_mut() {
+                Some((_, k)) if single => *k += 1,
+                Some((n, 0)) if !single => *n += 1,
+                _ => t.runs.push(if single { (0, 1) } else { (1, 0) }),
+            }
+            if single {
+                t.one.push(Scale {
+                    out: f.out,
+                    p: f.p,
+                    a: f.a,
+                });
+            } else {
+                t.two.push(*f);
+            }
+        }
+        t
+    }
+}
+
+/// Runs `list` in order: `dot[out] = s[p] dot[a] + s[q] dot[b]` for its two-term records and
+/// `dot[out] = s[p] dot[a]` for its one-term ones.
+#[inline(always)]
+fn tangent_kernel<A: Slots + ?Sized>(list: &Tangents, s: &A, dot: &mut A) {
+    let (mut two, mut one) = (&list.two[..], &list.one[..]);
+    for &(n2, n1) in &list.runs {
+        let (run, rest) = two.split_at(n2 as usize);
+        two = rest;
+        for f in run {
+            *dot.at_mut(f.out) = s.at(f.p) * dot.at(f.a) + s.at(f.q) * dot.at(f.b);
+        }
+        let (run, rest) = one.split_at(n1 as usize);
+        one = rest;
+        for f in run {
+            *dot.at_mut(f.out) = s.at(f.p) * dot.at(f.a);
+        }
+    }
+}
+
+/// The instructions on `s` (see [`Program::run`]).
+#[inline(always)]
+fn sweep_kernel<const ORDER: u8, A: Slots + ?Sized>(instrs: &[Instr], s: &mut A) {
+    for ins in instrs {
+        let (a, b, d) = (ins.a, ins.b, ins.d);
+        let v = match ins.kind {
+            Kind::Add => s.at(a) + s.at(b),
+            Kind::Sub => s.at(a) - s.at(b),
+            Kind::Mul => s.at(a) * s.at(b),
+            Kind::Neg => -s.at(a),
+            Kind::AddScaled => s.at(a) + s.at(d) * s.at(b),
+            Kind::SubScaled => s.at(a) - s.at(d) * s.at(b),
+            Kind::SinCos => {
+                let (sn, cs) = s.at(a).sin_cos();
+                *s.at_mut(b) = cs;
+                if ORDER >= 1 {
+                    *s.at_mut(d) = -sn;
+                }
+                if ORDER == 2 {
+                    *s.at_mut(d + 1) = -cs;
+                }
+                sn
+            }
+            Kind::Unary(op) => {
+                if ORDER == 0 {
+                    op.value(s.at(a))
+                } else {
+                    let (v, p, pp) = op.partials(s.at(a));
+                    *s.at_mut(d) = p;
+                    if ORDER == 2 {
+                        *s.at_mut(d + 1) = pp;
+                    }
+                    v
+                }
+            }
+            Kind::Powc(p) => {
+                if ORDER == 0 {
+                    powc_value(s.at(a), p)
+                } else {
+                    let (v, dp, dpp) = powc_partials(s.at(a), p);
+                    *s.at_mut(d) = dp;
+                    if ORDER == 2 {
+                        *s.at_mut(d + 1) = dpp;
+                    }
+                    v
+                }
+            }
+            Kind::Binary(op) => {
+                if ORDER == 0 {
+                    op.value(s.at(a), s.at(b))
+                } else {
+                    let p = op.partials(s.at(a), s.at(b));
+                    *s.at_mut(d) = p.a;
+                    *s.at_mut(d + 1) = p.b;
+                    if ORDER == 2 {
+                        *s.at_mut(d + 2) = p.aa;
+                        *s.at_mut(d + 3) = p.ab;
+                        *s.at_mut(d + 4) = p.bb;
+                    }
+                    p.v
+                }
+            }
+        };
+        *s.at_mut(ins.dst) = v;
     }
 }
 
@@ -578,6 +822,7 @@ impl Program {
                 r,
                 k,
                 terms: (start, terms.len() as u32),
+                pairs: (0, 0),
             });
         }
         // Adjoints are needed at curved nodes, at the inputs (the gradient) and on every path
@@ -605,7 +850,7 @@ impl Program {
                 }
             }
         }
-        let bar_slots = (0..n_values as u32).filter(|&v| need_bar[v as usize]).collect();
+        let bar_len = need_bar.iter().rposition(|&b| b).map_or(0, |v| v + 1);
         // Runtime tangent entries follow the template.
         let base = tc.template.len() as u32;
         let fix_dot = |x: u32| if x & RUNTIME != 0 { base + (x & !RUNTIME) } else { x };
@@ -624,6 +869,31 @@ impl Program {
         for t in &mut terms {
             *t = (t.0, fix_dot(t.1), fix_dot(t.2));
         }
+        // Terms of one node and one entry, two at a time.
+        let mut singles = Vec::with_capacity(terms.len());
+        let mut pairs: Vec<Pair> = Vec::new();
+        for c in &mut curvature {
+            let mut own: Vec<(u32, u32, u32)> = terms[c.terms.0 as usize..c.terms.1 as usize].to_vec();
+            own.sort_by_key(|t| t.0);
+            let start = (singles.len() as u32, pairs.len() as u32);
+            let mut i = 0;
+            while i < own.len() {
+                let (h, u, w) = own[i];
+                match own.get(i + 1) {
+                    Some(&(h2, u2, w2)) if h2 == h => {
+                        pairs.push((h, u, w, u2, w2));
+                        i += 2;
+                    }
+                    _ => {
+                        singles.push((h, u, w));
+                        i += 1;
+                    }
+                }
+            }
+            c.terms = (start.0, singles.len() as u32);
+            c.pairs = (start.1, pairs.len() as u32);
+        }
+        let terms = singles;
         // The instructions each sweep needs: owners of the slots it reads, and their arguments.
         let mut owner = vec![u32::MAX; n_slots];
         for (i, ins) in instrs.iter().enumerate() {
@@ -672,6 +942,8 @@ impl Program {
         let mut s_template = vec![0.0; n_slots + tc.coefs.len()];
         s_template[n..n + consts.len()].copy_from_slice(&consts);
         s_template[n_slots..].copy_from_slice(&tc.coefs);
+        let n_dot = (base + jac_runtime.max(hess_runtime)) as usize;
+        let width = s_template.len().max(n_dot).next_power_of_two();
         Program {
             id: ProgramId(NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed)),
             n_inputs: n,
@@ -684,14 +956,16 @@ impl Program {
             hessian_instrs,
             outputs,
             dot_template: tc.template,
-            n_dot: (base + jac_runtime.max(hess_runtime)) as usize,
-            jacobian,
+            n_dot,
+            width,
+            jacobian: Tangents::new(&jacobian, off(ZERO)),
             jacobian_entries,
-            hess_tangents,
+            hess_tangents: Tangents::new(&hess_tangents, off(ZERO)),
             adjoints,
-            bar_slots,
+            bar_len,
             curvature,
             terms,
+            pairs,
             pattern,
         }
     }
@@ -706,12 +980,12 @@ impl Program {
     /// (`ORDER == 2`).
     fn run<const ORDER: u8>(&self, instrs: &[Instr], ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
         if ws.loaded != self.id.0 {
-            grow(&mut ws.s, self.s_template.len());
-            grow(&mut ws.dot, self.n_dot);
+            grow(&mut ws.s, self.width);
+            grow(&mut ws.dot, self.width);
             self.load(&mut ws.s, &mut ws.dot);
             ws.loaded = self.id.0;
         }
-        self.sweep::<ORDER>(instrs, &mut ws.s[..self.s_template.len()], x, u);
+        self.sweep::<ORDER>(instrs, &mut ws.s[..self.width], x, u);
     }
 
     /// Writes the constants, coefficients and constant tangent entries (nothing else writes
@@ -723,85 +997,48 @@ impl Program {
         dot[..self.dot_template.len()].copy_from_slice(&self.dot_template);
     }
 
-    /// [`Program::run`] on a loaded `s` (`s_template.len()` entries).
+    /// [`Program::run`] on a loaded `s` (`width` entries).
     #[inline(always)]
     fn sweep<const ORDER: u8>(&self, instrs: &[Instr], s: &mut [f64], x: &[f64], u: &[f64]) {
         let n = self.n_inputs;
         copy_small(&mut s[..x.len()], x);
         copy_small(&mut s[x.len()..n], u);
-        for ins in instrs {
-            let (a, b, d) = (ins.a as usize, ins.b as usize, ins.d as usize);
-            let v = match ins.kind {
-                Kind::Add => s[a] + s[b],
-                Kind::Sub => s[a] - s[b],
-                Kind::Mul => s[a] * s[b],
-                Kind::Neg => -s[a],
-                Kind::AddScaled => s[a] + s[d] * s[b],
-                Kind::SubScaled => s[a] - s[d] * s[b],
-                Kind::SinCos => {
-                    let (sn, cs) = s[a].sin_cos();
-                    s[b] = cs;
-                    if ORDER >= 1 {
-                        s[d] = -sn;
-                    }
-                    if ORDER == 2 {
-                        s[d + 1] = -cs;
-                    }
-                    sn
-                }
-                Kind::Unary(op) => {
-                    if ORDER == 0 {
-                        op.value(s[a])
-                    } else {
-                        let (v, p, pp) = op.partials(s[a]);
-                        s[d] = p;
-                        if ORDER == 2 {
-                            s[d + 1] = pp;
+        macro_rules! fixed {
+            ($($w:literal)*) => {
+                match self.width {
+                    $($w => {
+                        if let Ok(s) = <&mut [f64; $w]>::try_from(&mut *s) {
+                            return sweep_kernel::<ORDER, _>(instrs, s);
                         }
-                        v
-                    }
-                }
-                Kind::Powc(p) => {
-                    if ORDER == 0 {
-                        powc_value(s[a], p)
-                    } else {
-                        let (v, dp, dpp) = powc_partials(s[a], p);
-                        s[d] = dp;
-                        if ORDER == 2 {
-                            s[d + 1] = dpp;
-                        }
-                        v
-                    }
-                }
-                Kind::Binary(op) => {
-                    if ORDER == 0 {
-                        op.value(s[a], s[b])
-                    } else {
-                        let p = op.partials(s[a], s[b]);
-                        s[d] = p.a;
-                        s[d + 1] = p.b;
-                        if ORDER == 2 {
-                            s[d + 2] = p.aa;
-                            s[d + 3] = p.ab;
-                            s[d + 4] = p.bb;
-                        }
-                        p.v
-                    }
+                    })*
+                    _ => {}
                 }
             };
-            s[ins.dst as usize] = v;
         }
+        fixed!(8 16 32 64 128 256 512 1024 2048 4096 8192);
+        sweep_kernel::<ORDER, _>(instrs, s)
     }
 
-    fn tangents(&self, ws: &mut ProgramWorkspace, list: &[Fma]) {
-        self.tangents_in(list, &ws.s, &mut ws.dot[..self.n_dot]);
+    fn tangents(&self, ws: &mut ProgramWorkspace, list: &Tangents) {
+        self.tangents_in(list, &ws.s[..self.width], &mut ws.dot[..self.width]);
     }
 
-    #[inline(always)]
-    fn tangents_in(&self, list: &[Fma], s: &[f64], dot: &mut [f64]) {
-        for f in list {
-            dot[f.out as usize] = s[f.p as usize] * dot[f.a as usize] + s[f.q as usize] * dot[f.b as usize];
+    /// The multiply-adds `list` on `s` and `dot` (`width` entries each).
+    fn tangents_in(&self, list: &Tangents, s: &[f64], dot: &mut [f64]) {
+        macro_rules! fixed {
+            ($($w:literal)*) => {
+                match self.width {
+                    $($w => {
+                        if let (Ok(s), Ok(dot)) = (<&[f64; $w]>::try_from(s), <&mut [f64; $w]>::try_from(&mut *dot)) {
+                            return tangent_kernel(list, s, dot);
+                        }
+                    })*
+                    _ => {}
+                }
+            };
         }
+        fixed!(8 16 32 64 128 256 512 1024 2048 4096 8192);
+        tangent_kernel(list, s, dot)
     }
 
     /// The value of output `i` after a run.
@@ -842,13 +1079,13 @@ impl Program {
         self.run::<2>(&self.hessian_instrs, ws, x, u);
         self.tangents(ws, &self.hess_tangents);
         let ProgramWorkspace { s, dot, bar, hess, .. } = ws;
-        self.reverse(s, dot, bar, hess, lambda);
+        self.reverse(&s[..self.width], &dot[..self.width], bar, hess, lambda);
     }
 
     /// The layout of a kept sweep ([`Program::jacobian_keep`]): the program's id, then `s`
-    /// (which begins with the point `z`, never overwritten) and `dot`.
+    /// (which begins with the point `z`, never overwritten) and `dot`, `width` entries each.
     fn kept_len(&self) -> usize {
-        1 + self.s_template.len() + self.n_dot
+        1 + 2 * self.width
     }
 
     /// [`Program::jacobian`] into `data` instead of a workspace, keeping the sweep and the
@@ -856,7 +1093,7 @@ impl Program {
     /// reverse sweep reads). `data` is resized and loaded once for this program (its first use,
     /// or after another program's); afterwards [`Program::kept_dot`] gives the tangent entries.
     pub fn jacobian_keep(&self, data: &mut Vec<f64>, x: &[f64], u: &[f64]) {
-        let (len, s_len) = (self.kept_len(), self.s_template.len());
+        let (len, s_len) = (self.kept_len(), self.width);
         if data.len() != len || data[0].to_bits() != self.id.0 {
             data.clear();
             data.resize(len, 0.0);
@@ -876,7 +1113,7 @@ impl Program {
     /// The tangent entries of a sweep [`Program::jacobian_keep`] kept (indexed like
     /// [`ProgramWorkspace::dot`]).
     pub fn kept_dot<'a>(&self, data: &'a [f64]) -> &'a [f64] {
-        &data[1 + self.s_template.len()..]
+        &data[1 + self.width..]
     }
 
     /// [`Program::second_order`] from the sweep [`Program::jacobian_keep`] kept in `data`,
@@ -894,7 +1131,7 @@ impl Program {
         if !self.one_sweep || data.len() != self.kept_len() || data[0].to_bits() != self.id.0 {
             return false;
         }
-        let (s, dot) = data[1..].split_at(self.s_template.len());
+        let (s, dot) = data[1..].split_at(self.width);
         let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(p, q)| p.to_bits() == q.to_bits());
         if x.len() + u.len() != n || !same(&s[..x.len()], x) || !same(&s[x.len()..n], u) {
             return false;
@@ -905,38 +1142,62 @@ impl Program {
     }
 
     /// The reverse sweep and the curvature terms of [`Program::second_order`] after its
-    /// forward sweep left `s` and `dot`.
-    #[inline(always)]
+    /// forward sweep left `s` and `dot` (`width` entries each).
     fn reverse(&self, s: &[f64], dot: &[f64], bar: &mut Vec<f64>, hess: &mut Vec<f64>, lambda: &[f64]) {
-        grow(bar, self.n_slots);
-        for &v in &self.bar_slots {
-            bar[v as usize] = 0.0;
-        }
-        for (&o, &l) in self.outputs.iter().zip(lambda) {
-            bar[o as usize] += l;
-        }
-        for a in &self.adjoints {
-            let b = bar[a.r as usize];
-            // A zero adjoint adds nothing (never `0 * inf` from a partial).
-            if b != 0.0 {
-                bar[a.arg as usize] += s[a.p as usize] * b;
-            }
-        }
+        grow(bar, self.width);
         let len = self.pattern.len();
         grow(hess, len.max(SMALL_HESSIAN));
         hess[..len].fill(0.0);
+        let bar = &mut bar[..self.width];
+        macro_rules! fixed {
+            ($($w:literal)*) => {
+                match self.width {
+                    $($w => {
+                        if let (Ok(s), Ok(dot), Ok(bar)) = (
+                            <&[f64; $w]>::try_from(s),
+                            <&[f64; $w]>::try_from(dot),
+                            <&mut [f64; $w]>::try_from(&mut *bar),
+                        ) {
+                            return self.reverse_kernel(s, dot, bar, hess, lambda);
+                        }
+                    })*
+                    _ => {}
+                }
+            };
+        }
+        fixed!(8 16 32 64 128 256 512 1024 2048 4096 8192);
+        self.reverse_kernel(s, dot, bar, hess, lambda)
+    }
+
+    #[inline(always)]
+    fn reverse_kernel<A: Slots + ?Sized>(&self, s: &A, dot: &A, bar: &mut A, hess: &mut [f64], lambda: &[f64]) {
+        bar.clear(self.bar_len);
+        for (&o, &l) in self.outputs.iter().zip(lambda) {
+            *bar.at_mut(o) += l;
+        }
+        for a in &self.adjoints {
+            let b = bar.at(a.r);
+            // A zero adjoint adds nothing (never `0 * inf` from a partial).
+            if b != 0.0 {
+                *bar.at_mut(a.arg) += s.at(a.p) * b;
+            }
+        }
+        let len = self.pattern.len();
         macro_rules! curvature {
             ($hess:expr, $at:expr) => {
                 for c in &self.curvature {
                     // A node without adjoint, or without curvature here, adds nothing (never
                     // `0 * inf`).
-                    let (b, k) = (bar[c.r as usize], s[c.k as usize]);
+                    let (b, k) = (bar.at(c.r), s.at(c.k));
                     if b == 0.0 || k == 0.0 {
                         continue;
                     }
                     let coef = b * k;
                     for &(h, u, w) in &self.terms[c.terms.0 as usize..c.terms.1 as usize] {
-                        $hess[$at(h)] += coef * dot[u as usize] * dot[w as usize];
+                        $hess[$at(h)] += coef * dot.at(u) * dot.at(w);
+                    }
+                    for &(h, u, w, u2, w2) in &self.pairs[c.pairs.0 as usize..c.pairs.1 as usize] {
+                        $hess[$at(h)] += coef * (dot.at(u) * dot.at(w) + dot.at(u2) * dot.at(w2));
                     }
                 }
             };

@@ -407,6 +407,21 @@ fn a_hessian_of_more_than_256_entries_equals_the_interpreter() {
     check(&t, &z, &[0.7, -1.3], 20, n).unwrap();
 }
 
+/// A program of more scalar slots than the largest fixed-size array the loops index through a
+/// mask (8192) takes the bounds-checked loops.
+#[test]
+fn a_program_wider_than_the_fixed_sizes_equals_the_interpreter() {
+    let mut b = TapeBuilder::new(2);
+    let (x, y) = (b.input(0).unwrap(), b.input(1).unwrap());
+    let mut v = b.binary(Binary::Mul, x, y).unwrap();
+    for _ in 0..3000 {
+        let t = b.unary(Unary::Tanh, v).unwrap();
+        v = b.binary(Binary::Mul, t, y).unwrap();
+    }
+    let t = b.finish(&[v, x]).unwrap();
+    check(&t, &[0.8, 1.1], &[0.7, -1.3], 1, 2).unwrap();
+}
+
 #[test]
 fn values_of_an_integrator_step_equal_the_interpreter_bit_for_bit() {
     // x + dt f(x, u) by Euler and RK4: the fused `a + c b` instructions do the same operations in

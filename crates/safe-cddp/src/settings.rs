@@ -113,7 +113,8 @@ pub struct Settings {
     /// [`WarmUp::Portfolio`]: when the best start's solution is the augmented Lagrangian's own
     /// (its hand-over to the KKT/QP iterations failed, and it ran to its own convergence), a
     /// last start from that solution, the KKT/QP iterations with cold multipliers and working
-    /// sets, kept when better (its iterations then add to the kept start's). Restarted with
+    /// sets, kept when better (its iterations and QP counts then add to the kept start's; the
+    /// report's log holds the polish's own iterations). Restarted with
     /// cold multipliers, the augmented Lagrangian leaves the contact set it had settled on and
     /// often finds a neighbouring one of lower cost. `false` (the default): no polish. On the
     /// family replays (`bench/peers/README.md`, "The polish") it matches the peers' best on 192

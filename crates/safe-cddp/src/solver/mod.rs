@@ -580,8 +580,10 @@ where
                 continue;
             }
             if member.is_none() {
-                // The polish continues the kept solution's iterations.
+                // The polish continues the kept solution: its iterations and QPs count with it
+                // (the log holds the polish's own rows).
                 self.report.iterations += p.report.iterations;
+                self.report.qp += p.report.qp;
             } else if i > 0 {
                 discarded += p.report.iterations;
                 discarded_qps += p.report.qp;

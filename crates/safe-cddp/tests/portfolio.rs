@@ -126,8 +126,8 @@ fn the_polish_reaches_the_optimum_the_augmented_lagrangian_stopped_short_of() {
     // discarded starts are the same.
     assert!(polished.iterations > plain.iterations);
     assert_eq!(polished.discarded_iterations, plain.discarded_iterations);
-    // Every start's QPs are counted, the polish's too.
-    assert!(polished.qp.solved > plain.qp.solved);
+    // The QPs of every start are counted, also those of the solution the polish continued.
+    assert!(polished.qp.solved >= plain.qp.solved);
 }
 
 #[test]

@@ -202,17 +202,17 @@ DDPKIT_METHODS = {"constrained": "ddpkit SafeCddpSolver", "penalty": "ddpkit pen
 
 
 def ddpkit_constrained_entries(
-    p: Any, methods: tuple[str, ...] = ("constrained", "penalty"), portfolio_polish: bool = False
+    p: Any, methods: tuple[str, ...] = ("constrained", "penalty"), safe_options: Optional[dict[str, Any]] = None
 ) -> list[Entry]:
     """ddpkit on problem `p` through `solve.py`'s `DdpkitSolver`, one entry per obstacle method,
-    every solve cold (zero controls)."""
+    every solve cold (zero controls); `safe_options`: keywords of `SafeCddpSolver`."""
     sys.path.insert(0, str(PEERS))
     from solve import DdpkitSolver
 
     entries = []
     for obstacles in methods:
         label = DDPKIT_METHODS[obstacles]
-        solver = DdpkitSolver(p, obstacles=obstacles, portfolio_polish=portfolio_polish)
+        solver = DdpkitSolver(p, obstacles=obstacles, safe_options=safe_options)
         entry = Entry(label, lambda: (0, float("nan"), None))
 
         def solve(solver: Any = solver, entry: Entry = entry) -> tuple[int, float, Optional[float]]:
@@ -225,7 +225,9 @@ def ddpkit_constrained_entries(
     return entries
 
 
-def constrained_comparison(repeats: int, warmup: int) -> tuple[list[dict[str, Any]], bool]:
+def constrained_comparison(
+    repeats: int, warmup: int, safe_options: Optional[dict[str, Any]] = None
+) -> tuple[list[dict[str, Any]], bool]:
     """P2 and P3: every solver, interleaved; rows with cost, violation, time and ratio."""
     from problem_file import load
 
@@ -233,7 +235,7 @@ def constrained_comparison(repeats: int, warmup: int) -> tuple[list[dict[str, An
     have_casadi = True
     for name in ("p2_car4", "p3_point4"):
         p = load(PROBLEMS / f"{name}.json")
-        entries = ddpkit_constrained_entries(p)
+        entries = ddpkit_constrained_entries(p, safe_options=safe_options)
         for plugin in ("ipopt", "fatrop"):
             e = casadi_entry(p, plugin)
             if e is None:
@@ -276,13 +278,22 @@ def main(argv: Optional[list[str]] = None) -> int:
     ap.add_argument("--json", type=Path, help="also write the results here")
     ap.add_argument("--skip-p1", action="store_true", help="only P2 and P3")
     ap.add_argument("--skip-constrained", action="store_true", help="only P1")
+    ap.add_argument("--polish", action="store_true", help="P2/P3: SafeCddpSolver(portfolio_polish=True)")
+    ap.add_argument(
+        "--portfolio-threads",
+        type=int,
+        default=1,
+        choices=(1, 2),
+        help="P2/P3: SafeCddpSolver(portfolio_threads=...): 2 runs the portfolio's first two starts at once",
+    )
     args = ap.parse_args(argv)
     repeats = max(20, args.repeats)
-    payload: dict[str, Any] = {"repeats": repeats, "python": sys.version.split()[0]}
+    safe_options = {"portfolio_polish": args.polish, "portfolio_threads": args.portfolio_threads}
+    payload: dict[str, Any] = {"repeats": repeats, "python": sys.version.split()[0], "safe_options": safe_options}
     if not args.skip_p1:
         payload.update(p1_comparison(repeats, args.warmup))
     if not args.skip_constrained:
-        rows, have_casadi = constrained_comparison(repeats, args.warmup)
+        rows, have_casadi = constrained_comparison(repeats, args.warmup, safe_options)
         print()
         print(f"P2 and P3 (three obstacles each): median of {repeats} cold solves, single-threaded, interleaved")
         header = (

@@ -212,7 +212,7 @@ def solve_problem(
     repeats: int = 3,
     peers: tuple[str, ...] = ("ipopt", "fatrop"),
     diagnose: bool = False,
-    portfolio_polish: bool = False,
+    safe_options: Optional[dict[str, Any]] = None,
 ) -> dict[str, Any]:
     """ddpkit and the CasADi peers on one problem-file dict: per solver the re-scored solution,
     status, iterations and time; then the comparison. With `diagnose`, where ddpkit misses, IPOPT
@@ -220,7 +220,7 @@ def solve_problem(
     from compare import casadi_entry, ddpkit_constrained_entries
 
     p = parse(spec)
-    entries = {"ddpkit": ddpkit_constrained_entries(p, methods=("constrained",), portfolio_polish=portfolio_polish)[0]}
+    entries = {"ddpkit": ddpkit_constrained_entries(p, methods=("constrained",), safe_options=safe_options)[0]}
     for plugin in peers:
         e = casadi_entry(p, plugin)
         if e is None:
@@ -471,6 +471,14 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "--polish", action="store_true", help="ddpkit with SafeCddpSolver(portfolio_polish=True) (default: its defaults)"
     )
+    ap.add_argument(
+        "--portfolio-threads",
+        type=int,
+        default=1,
+        choices=(1, 2),
+        help="ddpkit with SafeCddpSolver(portfolio_threads=...): 2 runs the portfolio's first two starts at once "
+        "(the same solutions; the peers stay single-threaded)",
+    )
     return ap
 
 
@@ -496,6 +504,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     if not peers:
         return 2
 
+    safe_options = {"portfolio_polish": args.polish, "portfolio_threads": args.portfolio_threads}
     per = {f: args.problems // len(families) + (i < args.problems % len(families)) for i, f in enumerate(families)}
     order = [(j, f) for j in range(max(per.values())) for f in families if j < per[f]]
     records: list[dict[str, Any]] = []
@@ -508,9 +517,7 @@ def main(argv: Optional[list[str]] = None) -> int:
             while True:
                 attempt, spec, rej = first_valid(f, args.seed, j, attempt)
                 rejected += rej
-                rec = solve_problem(
-                    spec, repeats=args.repeats, peers=peers, diagnose=args.diagnose, portfolio_polish=args.polish
-                )
+                rec = solve_problem(spec, repeats=args.repeats, peers=peers, diagnose=args.diagnose, safe_options=safe_options)
                 if rec["peers_feasible"]:
                     break
                 rejected.append({"id": spec["name"], "reason": "no peer feasible"})
@@ -540,6 +547,7 @@ def main(argv: Optional[list[str]] = None) -> int:
             "seed": args.seed,
             "families": families,
             "repeats": args.repeats,
+            "safe_options": safe_options,
             "peers": list(peers),
             "casadi": getattr(casadi, "__version__", "?"),
             "python": sys.version.split()[0],

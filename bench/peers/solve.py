@@ -39,7 +39,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 import numpy as np
 
@@ -99,7 +99,7 @@ class DdpkitSolver:
         weights: tuple[float, ...] = (1e2, 1e3, 1e4, 1e5, 1e6),
         max_rounds: int = 12,
         obstacles: str = "constrained",
-        portfolio_polish: bool = False,
+        safe_options: Optional[dict[str, Any]] = None,
     ) -> None:
         if obstacles not in ("constrained", "penalty"):
             raise ValueError(f"obstacles must be 'constrained' or 'penalty', got {obstacles!r}")
@@ -121,7 +121,7 @@ class DdpkitSolver:
         if len(p.obstacles) > 0 and obstacles == "constrained":
             circles = [ddpkit.Circle(o[:2], float(o[2])) for o in p.obstacles]
             self.constrained = ddpkit.SafeCddpSolver(
-                self.base, circles, method=method, max_iterations=max_iterations, portfolio_polish=portfolio_polish
+                self.base, circles, method=method, max_iterations=max_iterations, **(safe_options or {})
             )
 
     def _penalised(self, w: float, lam: np.ndarray) -> ddpkit.Problem:

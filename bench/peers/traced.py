@@ -261,7 +261,7 @@ class Entry:
     result: tuple = ()
 
 
-def ddpkit_entry(m: Model, traced: bool, warm_up: str = "portfolio") -> Entry:
+def ddpkit_entry(m: Model, traced: bool, warm_up: str = "portfolio", portfolio_threads: int = 1) -> Entry:
     step, running, terminal = m.functions
     con = None
     if traced:
@@ -280,7 +280,9 @@ def ddpkit_entry(m: Model, traced: bool, warm_up: str = "portfolio") -> Entry:
         solver: Any = ddpkit.Solver(problem, method=m.method, max_iterations=500)
         name = "Solver"
     else:
-        solver = ddpkit.SafeCddpSolver(problem, [con], method=m.method, max_iterations=500, warm_up=warm_up)
+        solver = ddpkit.SafeCddpSolver(
+            problem, [con], method=m.method, max_iterations=500, warm_up=warm_up, portfolio_threads=portfolio_threads
+        )
         name = "SafeCddpSolver"
     us0 = np.tile(guess(m), (m.n, 1))
 
@@ -405,9 +407,14 @@ def crocoddyl_entry(m: Model, crocoddyl: Any) -> Entry:
     return Entry(f"Crocoddyl {name} (Python action model{extra})", solve, "crocoddyl")
 
 
-def run(m: Model, repeats: int, crocoddyl: Any, croc_repeats: int, warm_up: str = "portfolio") -> list[dict]:
+def run(m: Model, repeats: int, crocoddyl: Any, croc_repeats: int, warm_up: str = "portfolio", portfolio_threads: int = 1) -> list[dict]:
     m.build()
-    entries = [ddpkit_entry(m, False, warm_up), ddpkit_entry(m, True, warm_up), casadi_entry(m, "ipopt"), casadi_entry(m, "fatrop")]
+    entries = [
+        ddpkit_entry(m, False, warm_up, portfolio_threads),
+        ddpkit_entry(m, True, warm_up, portfolio_threads),
+        casadi_entry(m, "ipopt"),
+        casadi_entry(m, "fatrop"),
+    ]
     if crocoddyl is not None:
         entries.append(crocoddyl_entry(m, crocoddyl))
     for e in entries:  # untimed: CasADi builds its NLP solver on the first solve
@@ -484,6 +491,13 @@ def main() -> int:
         choices=["portfolio", "augmented_lagrangian", "barrier", "none"],
         help="SafeCddpSolver's warm_up on constrained problems (default: the library's default, portfolio)",
     )
+    ap.add_argument(
+        "--portfolio-threads",
+        type=int,
+        default=1,
+        choices=[1, 2],
+        help="SafeCddpSolver's portfolio_threads: 2 runs the portfolio's first two starts at once (the peers run on one thread)",
+    )
     ap.add_argument("--skip-crocoddyl", action="store_true", help="run without the Crocoddyl column")
     args = ap.parse_args()
     if args.repeats < 1 or args.crocoddyl_repeats < 1:
@@ -506,7 +520,7 @@ def main() -> int:
             return 2
     rows = []
     for name in names:
-        rows += run(PROBLEMS[name](), args.repeats, crocoddyl, min(args.repeats, args.crocoddyl_repeats), args.warm_up)
+        rows += run(PROBLEMS[name](), args.repeats, crocoddyl, min(args.repeats, args.crocoddyl_repeats), args.warm_up, args.portfolio_threads)
     print("| problem | solver | status | iterations | cost | max violation | ms / solve | time / ddpkit from_casadi |")
     print("|---|---|---|---:|---:|---:|---:|---:|")
     for r in rows:
@@ -528,6 +542,7 @@ def main() -> int:
             "repeats": args.repeats,
             "crocoddyl_repeats": min(args.repeats, args.crocoddyl_repeats),
             "warm_up": args.warm_up,
+            "portfolio_threads": args.portfolio_threads,
             "casadi": ca.__version__,
             "crocoddyl": getattr(crocoddyl, "__version__", None),
         }

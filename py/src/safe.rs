@@ -809,6 +809,7 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("qp_method", qp_name(s.qp_method))?;
     d.set_item("warm_up", s.warm_up.as_str())?;
     d.set_item("portfolio_polish", s.portfolio_polish)?;
+    d.set_item("portfolio_threads", s.portfolio_threads)?;
     Ok(d)
 }
 
@@ -832,6 +833,7 @@ fn settings_from(
     qp_method: &str,
     warm_up: &str,
     portfolio_polish: bool,
+    portfolio_threads: i64,
 ) -> CoreResult<Settings> {
     let method = parse_method(method)?;
     let warm_up = [
@@ -862,6 +864,10 @@ fn settings_from(
         .ok()
         .filter(|&v| v >= 1)
         .ok_or_else(|| invalid("max_iterations", format!("must be at least 1, got {max_iterations}")))?;
+    let portfolio_threads = usize::try_from(portfolio_threads)
+        .ok()
+        .filter(|v| (1..=2).contains(v))
+        .ok_or_else(|| invalid("portfolio_threads", format!("must be 1 or 2, got {portfolio_threads}")))?;
     let s = Settings {
         method,
         max_iterations,
@@ -869,6 +875,7 @@ fn settings_from(
         qp_method,
         warm_up,
         portfolio_polish,
+        portfolio_threads,
         ..Settings::default()
     };
     s.validate()?;
@@ -1075,12 +1082,13 @@ impl SafeCddpSolver {
                         constraint_tolerance = Settings::default().constraint_tolerance,
                         qp_method = qp_name(Settings::default().qp_method),
                         warm_up = Settings::default().warm_up.as_str(),
-                        portfolio_polish = Settings::default().portfolio_polish))]
+                        portfolio_polish = Settings::default().portfolio_polish,
+                        portfolio_threads = Settings::default().portfolio_threads as i64))]
     // The defaults as Python sees them; tests compare them and the stub with `default_settings`.
     #[pyo3(
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
-                             portfolio_polish=False)"
+                             portfolio_polish=False, portfolio_threads=1)"
     )]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -1093,6 +1101,7 @@ impl SafeCddpSolver {
         qp_method: &str,
         warm_up: &str,
         portfolio_polish: bool,
+        #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
         let settings = settings_from(
@@ -1102,6 +1111,7 @@ impl SafeCddpSolver {
             qp_method,
             warm_up,
             portfolio_polish,
+            portfolio_threads,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1539,6 +1549,7 @@ impl Mpc {
             qp_name(d.qp_method),
             d.warm_up.as_str(),
             d.portfolio_polish,
+            d.portfolio_threads as i64,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1836,11 +1847,12 @@ where
                     constraint_tolerance = Settings::default().constraint_tolerance,
                     qp_method = qp_name(Settings::default().qp_method),
                     warm_up = Settings::default().warm_up.as_str(),
-                    portfolio_polish = Settings::default().portfolio_polish))]
+                    portfolio_polish = Settings::default().portfolio_polish,
+                    portfolio_threads = Settings::default().portfolio_threads as i64))]
 #[pyo3(
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
-                             portfolio_polish=False)"
+                             portfolio_polish=False, portfolio_threads=1)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn solve_batch_safe(
@@ -1855,6 +1867,7 @@ fn solve_batch_safe(
     qp_method: &str,
     warm_up: &str,
     portfolio_polish: bool,
+    #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
 ) -> PyResult<Vec<SafeSolution>> {
     let settings = settings_from(
         method,
@@ -1863,6 +1876,7 @@ fn solve_batch_safe(
         qp_method,
         warm_up,
         portfolio_polish,
+        portfolio_threads,
     )?;
     let batch = crate::batch::problems_of(problems)?;
     let threads = crate::batch::threads_of(threads)?;

@@ -94,6 +94,30 @@ def test_the_portfolio_polish_is_selectable_never_worse_and_pickles() -> None:
     np.testing.assert_array_equal(batch[0].us, polished.us)
 
 
+def test_two_portfolio_threads_give_the_one_thread_solution_and_pickle() -> None:
+    import pickle
+
+    assert ddpkit.default_settings("SafeCddpSolver")["portfolio_threads"] == 1
+    for polish in (False, True):
+        one = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=polish).solve()
+        solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=polish, portfolio_threads=2)
+        for _ in range(2):  # the second solve reuses the sibling workspace
+            two = solver.solve()
+            np.testing.assert_array_equal(two.us, one.us)
+            assert (two.cost, two.iterations, two.discarded_iterations) == (
+                one.cost,
+                one.iterations,
+                one.discarded_iterations,
+            )
+    again = pickle.loads(pickle.dumps(solver))
+    assert again == solver and again != ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=True)
+    batch = ddpkit.solve_batch_safe([p3_problem()] * 2, p3_obstacles(), threads=2, portfolio_threads=2)
+    np.testing.assert_array_equal(batch[1].us, ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles()).solve().us)
+    for bad in (0, 3):
+        with pytest.raises(ValueError, match="portfolio_threads"):
+            ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_threads=bad)
+
+
 def test_a_start_trapped_in_an_obstacle_ends_infeasible_with_finite_numbers() -> None:
     problem = p3_problem()
     problem.set_x0([1.0, 1.1, 0.0, 0.0])  # the centre of the first obstacle

@@ -9,7 +9,8 @@
 //! ```
 //!
 //! Environment: `THIRD_MU=3e-2` adds the portfolio's third start
-//! (`Settings::portfolio_third_mu`), `POLISH=1` its polish (`Settings::portfolio_polish`); `AL_RHO`, `AL_INNER`, `AL_TOL` set the augmented
+//! (`Settings::portfolio_third_mu`), `POLISH=1` its polish (`Settings::portfolio_polish`),
+//! `THREADS=2` its concurrent starts (`Settings::portfolio_threads`); `AL_RHO`, `AL_INNER`, `AL_TOL` set the augmented
 //! Lagrangian; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print per-solve details.
 use std::time::Instant;
 
@@ -56,6 +57,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("POLISH") {
         s.portfolio_polish = v != 0.0;
+    }
+    if let Some(v) = env("THREADS") {
+        s.portfolio_threads = v as usize;
     }
     if let Some(v) = env("THIRD_MU") {
         s.portfolio_third_mu = Some(v);

@@ -159,3 +159,80 @@ fn the_polish_never_ends_worse() {
         );
     }
 }
+
+/// Everything a solve leaves in the solver: the report's figures, the controls, states, gains and
+/// multipliers.
+fn fingerprint(solver: &SafeCddpSolver<nalgebra::U4, nalgebra::U2>) -> Vec<f64> {
+    let r = solver.report();
+    let mut v = vec![
+        r.cost,
+        r.max_violation,
+        r.iterations as f64,
+        r.discarded_iterations as f64,
+        r.backward_passes as f64,
+        r.qp.solved as f64,
+        f64::from(u8::from(r.status == Status::Converged)),
+    ];
+    v.extend(solver.us().iter().flat_map(|u| u.iter().copied()));
+    v.extend(solver.xs().iter().flat_map(|x| x.iter().copied()));
+    v.extend(solver.gains().iter().flat_map(|k| k.iter().copied()));
+    v.extend(solver.feedforward().iter().flat_map(|k| k.iter().copied()));
+    v.extend((0..solver.horizon()).flat_map(|k| solver.multipliers(k).to_vec()));
+    v
+}
+
+#[test]
+fn two_threads_are_the_one_thread_computation() {
+    // Problems where the first start is kept (P2, P3), where the polish runs (car-s1-i10), where
+    // the third start wins (point-s1-i24), and the second (barrier) start's solution is kept
+    // (point-s1-i5); each solved twice by one solver (the sibling's workspace is reused).
+    const POINT_S1_I5: &str = r#"{"name": "point-s1-i5-a0", "model": "point", "dt": 0.0611, "N": 89, "x0": [0.0, 0.0, 0.0, 0.0], "cost": {"kind": "quad_goal", "x_goal": [-4.2979, 1.6613, 0.0, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "u_min": [-0.9112, -0.8398], "u_max": [0.9112, 0.8398], "obstacles": [[-2.0242, 0.8678, 0.3246], [-1.4497, 0.3629, 0.2199], [-0.7001, 0.4772, 0.2728], [-2.1836, 1.0655, 0.4537]]}"#;
+    let p2 = std::fs::read_to_string("../../bench/problems/p2_car4.json").unwrap();
+    let p3 = std::fs::read_to_string("../../bench/problems/p3_point4.json").unwrap();
+    let variants = [
+        Settings::default(),
+        Settings {
+            portfolio_polish: true,
+            ..Settings::default()
+        },
+        Settings {
+            portfolio_third_mu: Some(3e-2),
+            portfolio_polish: true,
+            ..Settings::default()
+        },
+    ];
+    let mut second_kept = 0;
+    for json in [p2.as_str(), p3.as_str(), CAR_S1_I10, POINT_S1_I24, POINT_S1_I5] {
+        let bp = BenchmarkProblem::from_json(json).unwrap();
+        let (problem, constraints) = bp.car_or_point().unwrap();
+        for s in variants {
+            let mut one = SafeCddpSolver::new(&problem, constraints.clone(), s).unwrap();
+            let two_s = Settings {
+                portfolio_threads: 2,
+                ..s
+            };
+            let mut two = SafeCddpSolver::new(&problem, constraints.clone(), two_s).unwrap();
+            for round in 0..2 {
+                one.reset();
+                two.reset();
+                one.solve(&problem).unwrap();
+                two.solve(&problem).unwrap();
+                assert_eq!(fingerprint(&one), fingerprint(&two), "{} round {round}", bp.name);
+            }
+            // Whether the barrier start's solution was kept: the AL start alone differs.
+            let al = Settings {
+                warm_up: WarmUp::AugmentedLagrangian,
+                ..s
+            };
+            let mut alone = SafeCddpSolver::new(&problem, constraints.clone(), al).unwrap();
+            alone.solve(&problem).unwrap();
+            second_kept += usize::from(alone.report().cost != one.report().cost);
+        }
+    }
+    assert!(second_kept > 0, "no case keeps a later start");
+    let bad = Settings {
+        portfolio_threads: 0,
+        ..Settings::default()
+    };
+    assert!(bad.validate().unwrap_err().to_string().contains("portfolio_threads"));
+}

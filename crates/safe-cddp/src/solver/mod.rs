@@ -161,13 +161,13 @@ where
     stoch: Stochastic<NX, NU>,
     it: IterState,
     report: Report,
-    portfolio: Portfolio<NU>,
+    portfolio: Portfolio<NX, NU>,
 }
 
 /// The buffers of [`WarmUp::Portfolio`]: the initial guess, the kept solution and its report.
-struct Portfolio<NU: Dim>
+struct Portfolio<NX: Dim, NU: Dim>
 where
-    DefaultAllocator: Alloc<NU, NU>,
+    DefaultAllocator: Alloc<NX, NU>,
 {
     guess: Vec<VectorN<NU>>,
     best: Vec<VectorN<NU>>,
@@ -178,6 +178,10 @@ where
     mu_init: Option<f64>,
     /// The kept solution's last accepted step was a warm-up step (its KKT/QP hand-over failed).
     best_in_warm_up: bool,
+    /// [`Settings::portfolio_threads`]: the solver that runs the second start on another thread
+    /// (built at the first such solve, and again when the settings, constraints or horizon
+    /// change).
+    sibling: Option<Box<SafeCddpSolver<NX, NU>>>,
 }
 
 impl<NX: Dim, NU: Dim> std::fmt::Debug for SafeCddpSolver<NX, NU>
@@ -210,7 +214,6 @@ where
     ) -> Result<Self> {
         settings.validate()?;
         let dims = problem.dims();
-        let cap = problem.horizon();
         let max_dim = constraints.iter().map(|c| c.dim()).max().unwrap_or(0).max(1);
         let mut slots = Vec::with_capacity(constraints.len());
         let mut offset = 0;
@@ -230,6 +233,18 @@ where
             });
             offset += c.dim();
         }
+        Self::with_slots(problem, constraints, settings, slots, problem.horizon())
+    }
+
+    /// The workspace for horizons up to `cap`, with the constraints' rows laid out as `slots`.
+    fn with_slots(
+        problem: &Problem<NX, NU>,
+        constraints: Vec<Arc<dyn Constraint<NX, NU>>>,
+        settings: Settings,
+        slots: Vec<Slot>,
+        cap: usize,
+    ) -> Result<Self> {
+        let dims = problem.dims();
         let rows = Rows::new(dims, slots, cap);
         let m = rows.m;
         Ok(Self {
@@ -261,6 +276,7 @@ where
                 member: None,
                 mu_init: None,
                 best_in_warm_up: false,
+                sibling: None,
             },
         })
     }
@@ -534,7 +550,9 @@ where
     /// barrier from [`Settings::portfolio_third_mu`], when set) and keeps the best solution (see
     /// [`better`]). When that solution is the augmented Lagrangian's own (its KKT/QP hand-over
     /// failed), [`Settings::portfolio_polish`] adds a last start from it: the KKT/QP iterations
-    /// with cold multipliers and working sets.
+    /// with cold multipliers and working sets. With [`Settings::portfolio_threads`] = 2 the
+    /// first two starts run at once, the second on a sibling solver on another thread; each start
+    /// is the same computation either way, so the kept solution is too.
     fn solve_portfolio(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
         let start = Instant::now();
         let n = self.core.n;
@@ -551,9 +569,22 @@ where
         let mut discarded_qps = crate::qp::QpStats::default();
         // Whether the portfolio's best (`portfolio.best`, `.report`) is also the solver's state.
         let mut live_is_best = false;
+        let concurrent = self.settings.portfolio_threads > 1;
+        if concurrent {
+            self.prepare_sibling(problem)?;
+        }
         for (i, member) in guesses.into_iter().chain(third).chain(polish).enumerate() {
+            // The second start ran on the sibling, alongside the first: its whole end state comes
+            // over, as if it had run here.
+            let foreign = concurrent && i == 1;
+            if foreign {
+                let mut sib = self.portfolio.sibling.take().expect("prepared above");
+                self.swap_state(&mut sib);
+                self.portfolio.sibling = Some(sib);
+            }
             let p = &mut self.portfolio;
             match member {
+                _ if foreign => {}
                 Some((warm_up, mu)) => {
                     self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
                     p.member = Some(warm_up);
@@ -566,10 +597,16 @@ where
                 }
                 None => continue,
             }
-            if i > 0 {
-                self.forget();
+            if foreign {
+                // Done alongside the first start.
+            } else if concurrent && i == 0 {
+                self.solve_first_two(problem)?;
+            } else {
+                if i > 0 {
+                    self.forget();
+                }
+                self.solve_from_start(problem)?;
             }
-            self.solve_from_start(problem)?;
             let p = &mut self.portfolio;
             // On a tie the later start is kept.
             let keep_new = i == 0 || !better(&p.report, &self.report, tol);
@@ -616,6 +653,70 @@ where
         self.report.qp += discarded_qps;
         self.report.solve_time = start.elapsed();
         Ok(())
+    }
+
+    /// Builds the sibling solver of [`Settings::portfolio_threads`] when there is none or when it
+    /// no longer matches this one (settings, constraints, row layout, horizon). It is built with
+    /// this solver's row layout (relative degrees), not found again from `problem`.
+    fn prepare_sibling(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
+        let n = self.core.n;
+        let matches = self.portfolio.sibling.as_deref().is_some_and(|s| {
+            s.settings == self.settings
+                && s.cap == self.cap
+                && s.constraints.len() == self.constraints.len()
+                && s.constraints
+                    .iter()
+                    .zip(&self.constraints)
+                    .all(|(a, b)| Arc::ptr_eq(a, b))
+                && s.rows.slots == self.rows.slots
+        });
+        if !matches {
+            let (constraints, slots) = (self.constraints.clone(), self.rows.slots.clone());
+            let sibling = Self::with_slots(problem, constraints, self.settings, slots, self.cap)?;
+            self.portfolio.sibling = Some(Box::new(sibling));
+        }
+        let sib = self.portfolio.sibling.as_deref_mut().expect("built above");
+        if sib.core.n != n {
+            sib.set_horizon(n)?;
+        }
+        Ok(())
+    }
+
+    /// Exchanges everything a solve changes (trajectory, derivatives, gains, rows, working sets,
+    /// QP, warm-up, tightening state, iteration state, report) with `other`, a solver of the same
+    /// settings, constraints and capacity.
+    fn swap_state(&mut self, other: &mut Self) {
+        std::mem::swap(&mut self.core, &mut other.core);
+        std::mem::swap(&mut self.rows, &mut other.rows);
+        std::mem::swap(&mut self.kkt, &mut other.kkt);
+        std::mem::swap(&mut self.fwd, &mut other.fwd);
+        std::mem::swap(&mut self.warm, &mut other.warm);
+        std::mem::swap(&mut self.stoch, &mut other.stoch);
+        std::mem::swap(&mut self.it, &mut other.it);
+        std::mem::swap(&mut self.report, &mut other.report);
+    }
+
+    /// The portfolio's first two starts at once: the augmented Lagrangian's on this solver, the
+    /// barrier's on the sibling (on a scoped thread), both from the initial guess.
+    fn solve_first_two(&mut self, problem: &Problem<NX, NU>) -> Result<()> {
+        let n = self.core.n;
+        let mut sib = self.portfolio.sibling.take().expect("prepared before the first start");
+        sib.core.traj.us[..n].clone_from_slice(&self.portfolio.guess[..n]);
+        sib.forget();
+        sib.portfolio.member = Some(WarmUp::Barrier);
+        sib.portfolio.mu_init = None;
+        let (first, second) = std::thread::scope(|scope| {
+            let second = scope.spawn(|| sib.solve_from_start(problem));
+            let first = self.solve_from_start(problem);
+            (first, second.join())
+        });
+        sib.portfolio.member = None;
+        self.portfolio.sibling = Some(sib);
+        first?;
+        match second {
+            Ok(result) => result,
+            Err(panic) => std::panic::resume_unwind(panic),
+        }
     }
 
     /// The largest violation of the initial guess (projected onto the bounds, rolled out).

@@ -14,7 +14,7 @@ use ddp_core::ControlBounds;
 use crate::Constraint;
 
 /// Where the rows of one constraint sit in a knot's row block.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Slot {
     pub offset: usize,
     pub dim: usize,

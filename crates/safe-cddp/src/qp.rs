@@ -17,7 +17,9 @@
 //! 3. a closed-form certificate of infeasibility (`box_infeasible`: a row that cannot be met in
 //!    the box of the control bounds and the trust region), which answers the common infeasible
 //!    QP of the forward pass without an interior-point solve that would only certify it;
-//! 4. Clarabel, an interior-point solver set up once (dense `H` and `A` patterns, presolve and
+//! 4. every working set of at most `nu` rows (`enumerate`), when there are few of them (2
+//!    controls and up to 20 rows): the one that gives a KKT point is the optimum;
+//! 5. Clarabel, an interior-point solver set up once (dense `H` and `A` patterns, presolve and
 //!    equilibration off) and updated in place with `update_P/q/A/b` for every QP; its answer is
 //!    polished by one exact solve on the rows it found active.
 //!
@@ -38,7 +40,8 @@ use nalgebra::Cholesky;
 /// Which solvers [`StepQp::solve`] may use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum QpMethod {
-    /// Unconstrained minimiser, then the active-set method, then Clarabel (the default).
+    /// Unconstrained minimiser, then the active-set method, then the enumeration of working sets,
+    /// then Clarabel (the default).
     #[default]
     Fast,
     /// Clarabel for every QP (the paper's design; for comparisons and tests).
@@ -79,6 +82,8 @@ pub struct QpStats {
     pub unconstrained: usize,
     /// Answered by the active-set method.
     pub active_set: usize,
+    /// Answered by enumerating the working sets (after the active-set method gave up).
+    pub enumerated: usize,
     /// Handed to Clarabel.
     pub clarabel: usize,
     /// Interior-point iterations of Clarabel, summed.
@@ -111,6 +116,7 @@ impl std::ops::AddAssign for QpStats {
         self.solved += o.solved;
         self.unconstrained += o.unconstrained;
         self.active_set += o.active_set;
+        self.enumerated += o.enumerated;
         self.clarabel += o.clarabel;
         self.clarabel_iterations += o.clarabel_iterations;
         self.infeasible += o.infeasible;
@@ -126,6 +132,9 @@ impl std::ops::AddAssign for QpStats {
 const FEAS_TOL: f64 = 1e-10;
 /// Working-set changes the active-set method may make before handing over to Clarabel.
 const ACTIVE_SET_ITERATIONS: usize = 8;
+/// Most working sets [`StepQp::solve`] enumerates before handing a QP to Clarabel (2 controls and
+/// 20 rows: 210).
+const ENUMERATION_LIMIT: usize = 256;
 
 /// Working-set changes the elastic active-set method may make before handing over to Clarabel.
 const ELASTIC_ITERATIONS: usize = 12;
@@ -361,6 +370,10 @@ where
                 self.stats.box_certified += 1;
                 return QpOutcome::Infeasible;
             }
+            if let Some(du) = self.enumerate(&chol, q, a, b, trust) {
+                self.stats.enumerated += 1;
+                return QpOutcome::Solved(du, QpPath::ActiveSet);
+            }
         }
         self.clarabel_solve(&chol, h, q, a, b, trust)
     }
@@ -529,6 +542,78 @@ where
             self.working.push(add.0);
         }
         None
+    }
+
+    /// The KKT point found by trying every working set of at most `nu` rows (the trust region's
+    /// sides included), in order of size, or `None` when there are more than
+    /// [`ENUMERATION_LIMIT`] of them or none gives a KKT point (then Clarabel decides, and
+    /// certifies infeasibility). With `H` positive definite the optimum of a feasible QP is
+    /// unique, and its multipliers can be carried by linearly independent active rows, at most
+    /// `nu` of them (Caratheodory's theorem on the cone of active gradients), so some such
+    /// working set gives it: the equality-constrained solve on that set is stationary, feasible
+    /// for every row and has multipliers `>= 0`, the same tests as [`Self::active_set`]. For the
+    /// few controls of a mobile robot (2) and a dozen rows this is ~100 tiny solves, far cheaper
+    /// than an interior-point solve, and it answers exactly the degenerate QPs (more rows
+    /// binding than controls, working sets the active-set method cannot grow) that reach here.
+    fn enumerate(
+        &mut self,
+        chol: &Cholesky<f64, NU>,
+        q: &VectorN<NU>,
+        a: &[VectorN<NU>],
+        b: &[f64],
+        trust: f64,
+    ) -> Option<VectorN<NU>> {
+        let nu = self.nu.value();
+        let n_rows = self.n_rows(a, trust);
+        let max_k = nu.min(n_rows);
+        // sum_k C(n_rows, k), stopping as soon as it passes the limit.
+        let mut count = 0usize;
+        let mut c = 1usize;
+        for k in 1..=max_k {
+            c = c.saturating_mul(n_rows + 1 - k) / k;
+            count = count.saturating_add(c);
+            if count > ENUMERATION_LIMIT {
+                return None;
+            }
+        }
+        let mut lambda = VectorN::<NU>::zeros_generic(self.nu, U1);
+        let mut idx = [0usize; MAX_QP_CONTROLS];
+        for k in 1..=max_k {
+            // The k-subsets of 0..n_rows in lexicographic order.
+            for (j, slot) in idx[..k].iter_mut().enumerate() {
+                *slot = j;
+            }
+            loop {
+                self.working.clear();
+                self.working.extend_from_slice(&idx[..k]);
+                if let Some(du) = self.equality_qp(chol, q, a, b, trust, &mut lambda) {
+                    let dual_ok = (0..k).all(|r| lambda[r] >= -1e-12);
+                    if dual_ok && self.primal_feasible(&du, a, b, trust) {
+                        return Some(du);
+                    }
+                }
+                // Next subset: the rightmost index that can move, then its successors after it.
+                let Some(j) = (0..k).rev().find(|&j| idx[j] < n_rows - k + j) else {
+                    break;
+                };
+                idx[j] += 1;
+                for t in j + 1..k {
+                    idx[t] = idx[t - 1] + 1;
+                }
+            }
+        }
+        None
+    }
+
+    /// Every row outside the working set holds at `du`, within [`FEAS_TOL`] (the rows of the
+    /// working set hold as equalities).
+    fn primal_feasible(&self, du: &VectorN<NU>, a: &[VectorN<NU>], b: &[f64], trust: f64) -> bool {
+        (0..self.n_rows(a, trust)).all(|i| {
+            self.working.contains(&i) || {
+                let (ai, bi) = Self::row(self.nu, a, b, trust, i);
+                (ai.dot(du) - bi) / (1.0 + bi.abs()) <= FEAS_TOL
+            }
+        })
     }
 
     /// A primal active-set method for the elastic QP of [`StepQp::solve_elastic`], in the
@@ -1045,6 +1130,48 @@ mod tests {
             answered += fast.stats().elastic_active_set;
         }
         assert!(answered >= 120, "the active-set method answered only {answered} of 200");
+    }
+
+    #[test]
+    fn enumeration_matches_clarabel_on_degenerate_qps() {
+        // Seeded feasible QPs whose optimum often has more binding rows than controls: three
+        // rows through one point `v` (b = a^T v), a few more that `v` satisfies strictly, and an
+        // unconstrained minimiser pushed outside. Where the active-set method gives up, the
+        // enumeration must find Clarabel's optimum.
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rand = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut enumerated = 0;
+        for case in 0..300 {
+            let l = Matrix::<2, 2>::new(1.0 + rand().abs(), 0.0, rand(), 0.5 + rand().abs());
+            let h = l * l.transpose();
+            let v = Vector::<2>::new(0.3 * rand(), 0.3 * rand());
+            let q = -(h * v) + Vector::<2>::new(2.0 * rand(), 2.0 * rand());
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            for i in 0..3 + case % 5 {
+                let ai = Vector::<2>::new(rand(), rand());
+                let slack = if i < 3 { 0.0 } else { 0.2 * rand().abs() };
+                b.push(ai.dot(&v) + slack);
+                a.push(ai);
+            }
+            let trust = if case % 3 == 0 { 1.5 } else { f64::INFINITY };
+            let mut fast = StepQp::new(U2, 8, QpMethod::Fast).unwrap();
+            let mut exact = StepQp::new(U2, 8, QpMethod::Clarabel).unwrap();
+            let QpOutcome::Solved(du, _) = fast.solve(&h, &q, &a, &b, trust, &[]) else {
+                panic!("case {case}: a feasible QP was not solved by the fast paths");
+            };
+            let QpOutcome::Solved(du_c, _) = exact.solve(&h, &q, &a, &b, trust, &[]) else {
+                panic!("case {case}: Clarabel did not solve a feasible QP");
+            };
+            assert!((du - du_c).amax() < 1e-6, "case {case}: {du} against Clarabel's {du_c}");
+            assert_eq!(fast.stats().clarabel, 0, "case {case}: handed to Clarabel");
+            enumerated += fast.stats().enumerated;
+        }
+        assert!(enumerated >= 30, "the enumeration answered only {enumerated} of 300");
     }
 
     #[test]

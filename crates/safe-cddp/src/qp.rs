@@ -995,6 +995,22 @@ mod tests {
     use ddp_core::dims::U2;
     use ddp_core::{Matrix, Vector};
 
+    /// Seeded uniform numbers in [-1, 1) (xorshift64).
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        }
+    }
+
+    /// A random symmetric positive definite 2x2 `H = L L^T`.
+    fn spd(rand: &mut impl FnMut() -> f64) -> Matrix<2, 2> {
+        let l = Matrix::<2, 2>::new(1.0 + rand().abs(), 0.0, rand(), 0.5 + rand().abs());
+        l * l.transpose()
+    }
+
     /// min 1/2 |du|^2 - du_0 - du_1  s.t. du_0 + du_1 <= 1: the optimum is (1/2, 1/2) with
     /// multiplier 1/2 (by symmetry and stationarity `du - (1, 1) + lambda (1, 1) = 0`).
     fn hand_qp() -> (Matrix<2, 2>, Vector<2>, Vec<Vector<2>>, Vec<f64>) {
@@ -1090,17 +1106,10 @@ mod tests {
         // Seeded QPs in the forward pass's shape: soft rows with small `C` (relative degree 2),
         // hard control-bound sides, sometimes a trust region; the elastic optimum of the
         // active-set method (`Fast`) against Clarabel's.
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut rand = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rand = uniform(0x2545_f491_4f6c_dd1d);
         let mut answered = 0;
         for case in 0..200 {
-            let l = Matrix::<2, 2>::new(1.0 + rand().abs(), 0.0, rand(), 0.5 + rand().abs());
-            let h = l * l.transpose();
+            let h = spd(&mut rand);
             let q = Vector::<2>::new(rand(), rand());
             let soft = 1 + case % 3;
             let mut a = Vec::new();
@@ -1138,17 +1147,10 @@ mod tests {
         // rows through one point `v` (b = a^T v), a few more that `v` satisfies strictly, and an
         // unconstrained minimiser pushed outside. Where the active-set method gives up, the
         // enumeration must find Clarabel's optimum.
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut rand = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rand = uniform(0x9e37_79b9_7f4a_7c15);
         let mut enumerated = 0;
         for case in 0..300 {
-            let l = Matrix::<2, 2>::new(1.0 + rand().abs(), 0.0, rand(), 0.5 + rand().abs());
-            let h = l * l.transpose();
+            let h = spd(&mut rand);
             let v = Vector::<2>::new(0.3 * rand(), 0.3 * rand());
             let q = -(h * v) + Vector::<2>::new(2.0 * rand(), 2.0 * rand());
             let (mut a, mut b) = (Vec::new(), Vec::new());

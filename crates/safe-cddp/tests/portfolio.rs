@@ -236,3 +236,24 @@ fn two_threads_are_the_one_thread_computation() {
     };
     assert!(bad.validate().unwrap_err().to_string().contains("portfolio_threads"));
 }
+
+#[test]
+fn the_barrier_start_re_enters_with_the_warm_up_multipliers() {
+    // P2's barrier start makes short KKT/QP steps, one is rejected, and it re-enters the
+    // augmented-Lagrangian warm-up. With the backward pass's multipliers (up to 389 on two rows)
+    // the re-entered trajectory was thrown far from the obstacles and the whole portfolio took
+    // 207 iterations; with the multipliers the warm-up handed over with, 100, to the same
+    // optimum (below the NLP peers' 1.1972797).
+    let json = std::fs::read_to_string("../../bench/problems/p2_car4.json").unwrap();
+    let r = solve_json(&json, Settings::default());
+    assert_eq!(r.status, Status::Converged);
+    assert!(r.max_violation <= 1e-6, "violation {}", r.max_violation);
+    assert!(r.cost <= 1.1972797186 * (1.0 + 1e-6), "cost {}", r.cost);
+    let total = r.iterations + r.discarded_iterations;
+    assert!(
+        total <= 120,
+        "{} kept + {} discarded iterations",
+        r.iterations,
+        r.discarded_iterations
+    );
+}

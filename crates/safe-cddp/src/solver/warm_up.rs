@@ -84,7 +84,7 @@ where
     DefaultAllocator: Alloc<NX, NU>,
 {
     /// (Re-)enters the warm-up from the KKT/QP iterations, with their multipliers as the first
-    /// estimate and a moderate penalty (a penalty left at `al_rho_max` makes the inner problems
+    /// estimate (the warm-up's own in the portfolio's barrier starts) and a moderate penalty (a penalty left at `al_rho_max` makes the inner problems
     /// stiff, and good multipliers do not need it).
     pub(super) fn enter_warm_up(&mut self) {
         let s = &self.settings;
@@ -97,7 +97,15 @@ where
         w.rho = w
             .rho
             .clamp(s.al_rho_init, s.al_rho_init * s.al_rho_factor * s.al_rho_factor);
-        w.lambda.copy_from_slice(&self.rows.lambda);
+        // The portfolio's barrier starts keep the multipliers the warm-up handed over with: after
+        // a run of short KKT/QP steps the backward pass's multipliers can be far larger (up to
+        // 389 on two of P2's rows, against 0.02 at the hand-over) and throw the re-entered
+        // trajectory far from the obstacles (P2: 207 iterations instead of 100). Elsewhere (the
+        // augmented-Lagrangian start, MPC re-entries after a tightening) the backward pass's
+        // multipliers are the better estimate (P3 and Table I were tuned with them).
+        if self.portfolio.member != Some(crate::WarmUp::Barrier) {
+            w.lambda.copy_from_slice(&self.rows.lambda);
+        }
         self.core.reg.reset(&s.regularization);
         self.it.trust = s.trust_region;
         self.it.need_linearize = true;

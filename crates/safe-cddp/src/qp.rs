@@ -1005,6 +1005,14 @@ mod tests {
         }
     }
 
+    /// The default QP solver and the Clarabel-only one, for 2 controls and 8 rows.
+    fn fast_and_clarabel() -> (StepQp<U2>, StepQp<U2>) {
+        (
+            StepQp::new(U2, 8, QpMethod::Fast).unwrap(),
+            StepQp::new(U2, 8, QpMethod::Clarabel).unwrap(),
+        )
+    }
+
     /// A random symmetric positive definite 2x2 `H = L L^T`.
     fn spd(rand: &mut impl FnMut() -> f64) -> Matrix<2, 2> {
         let l = Matrix::<2, 2>::new(1.0 + rand().abs(), 0.0, rand(), 0.5 + rand().abs());
@@ -1128,8 +1136,7 @@ mod tests {
                 b.push(bound);
             }
             let trust = if case % 4 == 0 { 0.7 } else { f64::INFINITY };
-            let mut fast = StepQp::new(U2, 8, QpMethod::Fast).unwrap();
-            let mut exact = StepQp::new(U2, 8, QpMethod::Clarabel).unwrap();
+            let (mut fast, mut exact) = fast_and_clarabel();
             let (du, s) = fast.solve_elastic(&h, &q, &a, &b, soft, trust, 1e3).unwrap();
             let (du_c, s_c) = exact.solve_elastic(&h, &q, &a, &b, soft, trust, 1e3).unwrap();
             assert!(
@@ -1161,8 +1168,7 @@ mod tests {
                 a.push(ai);
             }
             let trust = if case % 3 == 0 { 1.5 } else { f64::INFINITY };
-            let mut fast = StepQp::new(U2, 8, QpMethod::Fast).unwrap();
-            let mut exact = StepQp::new(U2, 8, QpMethod::Clarabel).unwrap();
+            let (mut fast, mut exact) = fast_and_clarabel();
             let QpOutcome::Solved(du, _) = fast.solve(&h, &q, &a, &b, trust, &[]) else {
                 panic!("case {case}: a feasible QP was not solved by the fast paths");
             };

@@ -278,17 +278,13 @@ def main(argv: Optional[list[str]] = None) -> int:
     ap.add_argument("--json", type=Path, help="also write the results here")
     ap.add_argument("--skip-p1", action="store_true", help="only P2 and P3")
     ap.add_argument("--skip-constrained", action="store_true", help="only P1")
-    ap.add_argument("--polish", action="store_true", help="P2/P3: SafeCddpSolver(portfolio_polish=True)")
-    ap.add_argument(
-        "--portfolio-threads",
-        type=int,
-        default=1,
-        choices=(1, 2),
-        help="P2/P3: SafeCddpSolver(portfolio_threads=...): 2 runs the portfolio's first two starts at once",
-    )
+    sys.path.insert(0, str(PEERS))
+    from solve import add_safe_arguments, safe_options_of
+
+    add_safe_arguments(ap)  # P2 and P3
     args = ap.parse_args(argv)
     repeats = max(20, args.repeats)
-    safe_options = {"portfolio_polish": args.polish, "portfolio_threads": args.portfolio_threads}
+    safe_options = safe_options_of(args)
     payload: dict[str, Any] = {"repeats": repeats, "python": sys.version.split()[0], "safe_options": safe_options}
     if not args.skip_p1:
         payload.update(p1_comparison(repeats, args.warmup))

@@ -468,17 +468,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "--diagnose", action="store_true", help="where ddpkit misses, also start IPOPT from ddpkit's solution (untimed)"
     )
-    ap.add_argument(
-        "--polish", action="store_true", help="ddpkit with SafeCddpSolver(portfolio_polish=True) (default: its defaults)"
-    )
-    ap.add_argument(
-        "--portfolio-threads",
-        type=int,
-        default=1,
-        choices=(1, 2),
-        help="ddpkit with SafeCddpSolver(portfolio_threads=...): 2 runs the portfolio's first two starts at once "
-        "(the same solutions; the peers stay single-threaded)",
-    )
+    from solve import add_safe_arguments
+
+    add_safe_arguments(ap)
     return ap
 
 
@@ -504,7 +496,9 @@ def main(argv: Optional[list[str]] = None) -> int:
     if not peers:
         return 2
 
-    safe_options = {"portfolio_polish": args.polish, "portfolio_threads": args.portfolio_threads}
+    from solve import safe_options_of
+
+    safe_options = safe_options_of(args)
     per = {f: args.problems // len(families) + (i < args.problems % len(families)) for i, f in enumerate(families)}
     order = [(j, f) for j in range(max(per.values())) for f in families if j < per[f]]
     records: list[dict[str, Any]] = []

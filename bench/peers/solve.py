@@ -88,6 +88,25 @@ def costs_of(p: BenchProblem) -> tuple[ddpkit.Cost, ddpkit.Cost]:
     )
 
 
+
+def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
+    """`--polish` and `--portfolio-threads`: the `SafeCddpSolver` options the peer benchmarks
+    expose (read back with `safe_options_of`)."""
+    ap.add_argument("--polish", action="store_true", help="ddpkit with SafeCddpSolver(portfolio_polish=True)")
+    ap.add_argument(
+        "--portfolio-threads",
+        type=int,
+        default=1,
+        choices=(1, 2),
+        help="ddpkit with SafeCddpSolver(portfolio_threads=...): 2 runs the portfolio's first two starts at once "
+        "(the same solutions; the peers stay single-threaded)",
+    )
+
+
+def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
+    """The `SafeCddpSolver` keywords of `add_safe_arguments`'s options."""
+    return {"portfolio_polish": args.polish, "portfolio_threads": args.portfolio_threads}
+
 class DdpkitSolver:
     """Builds the ddpkit problem(s) once and solves from a cold start on each call."""
 

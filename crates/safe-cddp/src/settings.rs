@@ -127,8 +127,9 @@ pub struct Settings {
     /// another thread, built at the first such solve (it allocates its own workspace then; each
     /// such solve starts a scoped thread); the third start and the polish follow on the calling
     /// thread. Every start is the same computation as with 1, so the solution, iterations and
-    /// status are too; only the wall time differs (about 0.6x on `bench/peers/family.py`, the
-    /// longer of the two starts instead of their sum). 1 (the default): one thread.
+    /// status are too; only the wall time differs (0.80x with the polish on
+    /// `bench/peers/family.py`: the longer of the two starts instead of their sum). 1 (the
+    /// default): one thread.
     pub portfolio_threads: usize,
     /// Initial `rho` of the warm-up.
     pub al_rho_init: f64,

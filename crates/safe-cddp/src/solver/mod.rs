@@ -574,38 +574,35 @@ where
             self.prepare_sibling(problem)?;
         }
         for (i, member) in guesses.into_iter().chain(third).chain(polish).enumerate() {
-            // The second start ran on the sibling, alongside the first: its whole end state comes
-            // over, as if it had run here.
-            let foreign = concurrent && i == 1;
-            if foreign {
+            if concurrent && i == 1 {
+                // The second start ran on the sibling, alongside the first: its whole end state
+                // comes over, as if it had run here.
                 let mut sib = self.portfolio.sibling.take().expect("prepared above");
                 self.swap_state(&mut sib);
                 self.portfolio.sibling = Some(sib);
-            }
-            let p = &mut self.portfolio;
-            match member {
-                _ if foreign => {}
-                Some((warm_up, mu)) => {
-                    self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
-                    p.member = Some(warm_up);
-                    p.mu_init = mu;
-                }
-                None if p.best_in_warm_up => {
-                    self.core.traj.us[..n].clone_from_slice(&p.best[..n]);
-                    p.member = Some(WarmUp::None);
-                    p.mu_init = None;
-                }
-                None => continue,
-            }
-            if foreign {
-                // Done alongside the first start.
-            } else if concurrent && i == 0 {
-                self.solve_first_two(problem)?;
             } else {
-                if i > 0 {
-                    self.forget();
+                let p = &mut self.portfolio;
+                match member {
+                    Some((warm_up, mu)) => {
+                        self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
+                        p.member = Some(warm_up);
+                        p.mu_init = mu;
+                    }
+                    None if p.best_in_warm_up => {
+                        self.core.traj.us[..n].clone_from_slice(&p.best[..n]);
+                        p.member = Some(WarmUp::None);
+                        p.mu_init = None;
+                    }
+                    None => continue,
                 }
-                self.solve_from_start(problem)?;
+                if concurrent && i == 0 {
+                    self.solve_first_two(problem)?;
+                } else {
+                    if i > 0 {
+                        self.forget();
+                    }
+                    self.solve_from_start(problem)?;
+                }
             }
             let p = &mut self.portfolio;
             // On a tie the later start is kept.

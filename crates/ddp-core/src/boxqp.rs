@@ -7,9 +7,10 @@
 //! Used by box-DDP for the control step at each knot. At the solution the *free* set (controls not
 //! clamped at a bound) defines the feedback: `K_f = -H_ff^{-1} Q_ux,f`, clamped rows zero.
 
-use nalgebra::{Cholesky, Dim, U1};
+use nalgebra::Dim;
 
 use crate::dims::{Allocator, DefaultAllocator, MatrixN, VectorN};
+use crate::kernels::{cholesky_in_place, cholesky_solve_in_place, mul_vec_add};
 
 /// Outcome of [`box_qp`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,69 +27,118 @@ pub enum BoxQpStatus {
     MaxIterations,
 }
 
-/// Result of [`box_qp`].
+/// The problem data, result and scratch of [`box_qp`] for `N` variables, allocated once, so that
+/// a solve allocates nothing at run-time sizes either (box-DDP solves one QP per knot and
+/// backward pass).
 #[derive(Debug, Clone)]
 pub struct BoxQp<N: Dim>
 where
     DefaultAllocator: Allocator<N> + Allocator<N, N>,
 {
+    /// Lower bounds of `x` (set before [`box_qp`]; may be `-inf`).
+    pub lower: VectorN<N>,
+    /// Upper bounds of `x` (may be `inf`).
+    pub upper: VectorN<N>,
     /// The minimiser (always within the bounds).
     pub x: VectorN<N>,
     /// `free[i]` is true when `x[i]` is not clamped at a bound.
-    pub free: nalgebra::OVector<bool, N>,
-    /// Cholesky factor of `H` with clamped rows and columns replaced by the identity, so that
-    /// solving with it gives the free-subspace Newton step (clamped entries pass through).
-    pub chol: Option<Cholesky<f64, N>>,
+    pub free: Vec<bool>,
+    /// In its lower triangle, the Cholesky factor (as [`cholesky_in_place`] leaves it) of `H`
+    /// with clamped rows and columns replaced by the identity, so that
+    /// [`cholesky_solve_in_place`] with it gives the free-subspace Newton step (clamped entries
+    /// pass through). Valid when [`BoxQpReport::factored`].
+    pub chol: MatrixN<N, N>,
+    grad: VectorN<N>,
+    dx: VectorN<N>,
+    x_try: VectorN<N>,
+    hx: VectorN<N>,
+    new_free: Vec<bool>,
+}
+
+/// How [`box_qp`] ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoxQpReport {
     /// How the iteration ended.
     pub status: BoxQpStatus,
     /// Newton iterations used.
     pub iterations: usize,
+    /// [`BoxQp::chol`] holds the factor of the final free set (false only when that matrix is
+    /// not positive definite).
+    pub factored: bool,
 }
 
-/// `H` with the rows and columns of clamped variables replaced by those of the identity.
-fn reduced<N: Dim>(h: &MatrixN<N, N>, free: &nalgebra::OVector<bool, N>) -> MatrixN<N, N>
+impl<N: Dim> BoxQp<N>
 where
     DefaultAllocator: Allocator<N> + Allocator<N, N>,
 {
-    let (r, c) = h.shape_generic();
-    MatrixN::from_fn_generic(r, c, |i, j| {
-        if free[i] && free[j] {
-            h[(i, j)]
-        } else if i == j {
-            1.0
-        } else {
-            0.0
+    /// Buffers for `n` variables (`n` must equal `N` where that is fixed), unbounded.
+    pub fn new(n: N) -> Self {
+        let z = VectorN::<N>::zeros_generic(n, nalgebra::U1);
+        Self {
+            lower: VectorN::from_element_generic(n, nalgebra::U1, f64::NEG_INFINITY),
+            upper: VectorN::from_element_generic(n, nalgebra::U1, f64::INFINITY),
+            x: z.clone(),
+            free: vec![true; n.value()],
+            chol: MatrixN::zeros_generic(n, n),
+            grad: z.clone(),
+            dx: z.clone(),
+            x_try: z.clone(),
+            hx: z,
+            new_free: vec![true; n.value()],
         }
-    })
+    }
+
+    /// `x' g + 1/2 x' H x` at `x` (one of the buffers, passed by the caller).
+    fn value(hx: &mut VectorN<N>, h: &MatrixN<N, N>, g: &VectorN<N>, x: &VectorN<N>) -> f64 {
+        mul_vec_add(hx, None, h, x);
+        x.dot(g) + 0.5 * x.dot(hx)
+    }
+
+    /// The free set at `x` into `new_free`: a variable is clamped when it sits at a bound and
+    /// the gradient pushes it further out.
+    fn free_set(&mut self) {
+        for (i, f) in self.new_free.iter_mut().enumerate() {
+            let (x, g) = (self.x[i], self.grad[i]);
+            *f = !((x <= self.lower[i] && g > 0.0) || (x >= self.upper[i] && g < 0.0));
+        }
+    }
+
+    /// Factors `H` with the rows and columns of clamped variables replaced by those of the
+    /// identity (the free set `free`) into `chol`.
+    fn factor(&mut self, h: &MatrixN<N, N>) -> bool {
+        let n = self.free.len();
+        for j in 0..n {
+            for i in 0..n {
+                self.chol[(i, j)] = if self.free[i] && self.free[j] {
+                    h[(i, j)]
+                } else if i == j {
+                    1.0
+                } else {
+                    0.0
+                };
+            }
+        }
+        cholesky_in_place(&mut self.chol)
+    }
+
+    /// `x_try = clamp(x + step dx)`.
+    fn trial(&mut self, step: f64) {
+        for i in 0..self.free.len() {
+            self.x_try[i] = (self.x[i] + step * self.dx[i]).clamp(self.lower[i], self.upper[i]);
+        }
+    }
 }
 
-/// The free set at `x`: a variable is clamped when it sits at a bound and the gradient pushes
-/// it further out.
-fn free_set<N: Dim>(
-    x: &VectorN<N>,
-    grad: &VectorN<N>,
-    lower: &VectorN<N>,
-    upper: &VectorN<N>,
-) -> nalgebra::OVector<bool, N>
-where
-    DefaultAllocator: Allocator<N>,
-{
-    let (r, _) = x.shape_generic();
-    nalgebra::OVector::from_fn_generic(r, U1, |i, _| {
-        !((x[i] <= lower[i] && grad[i] > 0.0) || (x[i] >= upper[i] && grad[i] < 0.0))
-    })
-}
-
-/// Solves the box QP from the warm start `x0` (projected onto the box first).
-/// `h` must be symmetric; bounds may be infinite. Allocates only for run-time sizes.
+/// Solves `min 1/2 x' H x + g' x` over `qp.lower <= x <= qp.upper` from the warm start `x0`
+/// (projected onto the box first) into `qp.x`, `qp.free` and `qp.chol`. `h` must be symmetric;
+/// bounds may be infinite; no bound may be NaN.
 pub fn box_qp<N: Dim>(
+    qp: &mut BoxQp<N>,
     h: &MatrixN<N, N>,
     g: &VectorN<N>,
-    lower: &VectorN<N>,
-    upper: &VectorN<N>,
     x0: &VectorN<N>,
     max_iterations: usize,
-) -> BoxQp<N>
+) -> BoxQpReport
 where
     DefaultAllocator: Allocator<N> + Allocator<N, N>,
 {
@@ -98,89 +148,85 @@ where
     const STEP_DEC: f64 = 0.6;
     const MIN_STEP: f64 = 1e-22;
 
-    let (rows, _) = g.shape_generic();
-    let clamp = |x: &VectorN<N>| VectorN::<N>::from_fn_generic(rows, U1, |i, _| x[i].clamp(lower[i], upper[i]));
-    let value = |x: &VectorN<N>| x.dot(g) + 0.5 * x.dot(&(h * x));
-
-    let mut x = clamp(x0);
-    let mut f = value(&x);
-    let mut free = nalgebra::OVector::<bool, N>::from_element_generic(rows, U1, true);
-    let mut chol = None;
+    let n = qp.free.len();
+    for i in 0..n {
+        qp.x[i] = x0[i].clamp(qp.lower[i], qp.upper[i]);
+    }
+    let mut f = BoxQp::value(&mut qp.hx, h, g, &qp.x);
+    qp.free.fill(true);
+    let mut factored = false;
     let mut status = BoxQpStatus::MaxIterations;
     let mut iterations = 0;
 
     for it in 0..max_iterations {
         iterations = it + 1;
-        let grad = g + h * &x;
-        let new_free = free_set(&x, &grad, lower, upper);
-        if new_free.iter().all(|f| !f) {
-            free = new_free;
-            chol = Cholesky::new(reduced(h, &free));
+        mul_vec_add(&mut qp.grad, Some(g), h, &qp.x);
+        qp.free_set();
+        if qp.new_free.iter().all(|f| !f) {
+            std::mem::swap(&mut qp.free, &mut qp.new_free);
+            factored = qp.factor(h);
             status = BoxQpStatus::AllClamped;
             break;
         }
-        if it == 0 || new_free != free || chol.is_none() {
-            free = new_free;
-            chol = Cholesky::new(reduced(h, &free));
-            if chol.is_none() {
+        if it == 0 || qp.new_free != qp.free || !factored {
+            std::mem::swap(&mut qp.free, &mut qp.new_free);
+            factored = qp.factor(h);
+            if !factored {
                 status = BoxQpStatus::NotPositiveDefinite;
                 break;
             }
         }
-        let grad_free = VectorN::<N>::from_fn_generic(rows, U1, |i, _| if free[i] { grad[i] } else { 0.0 });
-        if grad_free.norm() < MIN_GRAD {
+        // The gradient on the free subspace (clamped entries zero, so they stay).
+        for i in 0..n {
+            qp.dx[i] = if qp.free[i] { qp.grad[i] } else { 0.0 };
+        }
+        if qp.dx.norm() < MIN_GRAD {
             status = BoxQpStatus::Converged;
             break;
         }
-        // Newton step on the free subspace; clamped entries of grad_free are zero, so they stay.
-        let Some(c) = chol.as_ref() else { break };
-        let dx = -c.solve(&grad_free);
-        let slope = dx.dot(&grad);
+        // Newton step on the free subspace.
+        cholesky_solve_in_place(&qp.chol, &mut qp.dx);
+        qp.dx.neg_mut();
+        let slope = qp.dx.dot(&qp.grad);
         if slope >= 0.0 {
             status = BoxQpStatus::Converged;
             break;
         }
         let mut step = 1.0;
-        let (mut x_try, mut f_try);
-        loop {
-            x_try = clamp(&(&x + &dx * step));
-            f_try = value(&x_try);
+        let f_try = loop {
+            qp.trial(step);
+            let f_try = BoxQp::value(&mut qp.hx, h, g, &qp.x_try);
             if (f_try - f) / (step * slope) > ARMIJO {
-                break;
+                break f_try;
             }
             step *= STEP_DEC;
             if step < MIN_STEP {
-                status = BoxQpStatus::LineSearchFailed;
-                return BoxQp {
-                    x,
-                    free,
-                    chol,
-                    status,
+                return BoxQpReport {
+                    status: BoxQpStatus::LineSearchFailed,
                     iterations,
+                    factored,
                 };
             }
-        }
+        };
         let improvement = f - f_try;
-        x = x_try;
+        std::mem::swap(&mut qp.x, &mut qp.x_try);
         f = f_try;
         if improvement < MIN_REL_IMPROVE * f.abs().max(1e-300) {
             status = BoxQpStatus::Converged;
             // The free set may have changed at the last step: refresh it for the gains.
-            let grad = g + h * &x;
-            let final_free = free_set(&x, &grad, lower, upper);
-            if final_free != free {
-                free = final_free;
-                chol = Cholesky::new(reduced(h, &free));
+            mul_vec_add(&mut qp.grad, Some(g), h, &qp.x);
+            qp.free_set();
+            if qp.new_free != qp.free {
+                std::mem::swap(&mut qp.free, &mut qp.new_free);
+                factored = qp.factor(h);
             }
             break;
         }
     }
-    BoxQp {
-        x,
-        free,
-        chol,
+    BoxQpReport {
         status,
         iterations,
+        factored,
     }
 }
 
@@ -188,6 +234,22 @@ where
 mod tests {
     use super::*;
     use crate::{Matrix, Vector};
+
+    /// [`box_qp`] on fixed-size data, with fresh buffers.
+    fn solve<const N: usize>(
+        h: &Matrix<N, N>,
+        g: &Vector<N>,
+        lo: &Vector<N>,
+        hi: &Vector<N>,
+        x0: &Vector<N>,
+        iterations: usize,
+    ) -> (BoxQp<nalgebra::Const<N>>, BoxQpReport) {
+        let mut qp = BoxQp::new(nalgebra::Const::<N>);
+        qp.lower.copy_from(lo);
+        qp.upper.copy_from(hi);
+        let report = box_qp(&mut qp, h, g, x0, iterations);
+        (qp, report)
+    }
 
     /// Brute force over all active sets of a small QP: the best KKT point that is feasible.
     fn brute<const N: usize>(h: &Matrix<N, N>, g: &Vector<N>, lo: &Vector<N>, hi: &Vector<N>) -> Vector<N> {
@@ -218,8 +280,16 @@ mod tests {
                     x[i]
                 }
             });
-            let free = nalgebra::OVector::<bool, nalgebra::Const<N>>::from_row_slice(&free);
-            let Some(ch) = Cholesky::new(reduced(h, &free)) else {
+            let reduced = Matrix::<N, N>::from_fn(|i, j| {
+                if free[i] && free[j] {
+                    h[(i, j)]
+                } else if i == j {
+                    1.0
+                } else {
+                    0.0
+                }
+            });
+            let Some(ch) = reduced.cholesky() else {
                 continue;
             };
             let sol = ch.solve(&rhs);
@@ -248,15 +318,26 @@ mod tests {
             let g = Vector::<3>::from_fn(|_, _| 3.0 * rnd());
             let lo = Vector::<3>::from_fn(|_, _| -0.2 - rnd().abs());
             let hi = Vector::<3>::from_fn(|_, _| 0.2 + rnd().abs());
-            let r = box_qp(&h, &g, &lo, &hi, &Vector::zeros(), 100);
+            let (r, report) = solve(&h, &g, &lo, &hi, &Vector::zeros(), 100);
             let expected = brute(&h, &g, &lo, &hi);
             assert!(
                 (r.x - expected).amax() < 1e-7,
                 "got {:?} expected {:?} ({:?})",
                 r.x,
                 expected,
-                r.status
+                report.status
             );
+            // At run-time size the same computation.
+            let d = nalgebra::Dyn(3);
+            let mut dq = BoxQp::new(d);
+            let dynamic = |m: &Matrix<3, 3>| MatrixN::<nalgebra::Dyn, nalgebra::Dyn>::from_column_slice_generic(d, d, m.as_slice());
+            let vector = |v: &Vector<3>| VectorN::<nalgebra::Dyn>::from_column_slice_generic(d, nalgebra::U1, v.as_slice());
+            dq.lower = vector(&lo);
+            dq.upper = vector(&hi);
+            let dr = box_qp(&mut dq, &dynamic(&h), &vector(&g), &vector(&Vector::zeros()), 100);
+            assert_eq!(dr, report);
+            assert_eq!(dq.x.as_slice(), r.x.as_slice());
+            assert_eq!(dq.free, r.free);
         }
     }
 
@@ -265,26 +346,24 @@ mod tests {
         let h = Matrix::<2, 2>::new(2.0, 0.5, 0.5, 1.0);
         let g = Vector::<2>::new(-1.0, 0.3);
         let inf = Vector::<2>::repeat(f64::INFINITY);
-        let r = box_qp(&h, &g, &(-inf), &inf, &Vector::zeros(), 50);
+        let (r, report) = solve(&h, &g, &(-inf), &inf, &Vector::zeros(), 50);
         let exact = -h.cholesky().unwrap().solve(&g);
         assert!((r.x - exact).amax() < 1e-12);
-        assert_eq!(r.free.as_slice(), [true, true]);
+        assert_eq!(r.free, [true, true]);
+        assert!(report.factored);
+        // The factor is H's own: solving with it is the Newton step.
+        let mut step = -g;
+        cholesky_solve_in_place(&r.chol, &mut step);
+        assert!((step - exact).amax() < 1e-12);
     }
 
     #[test]
     fn all_clamped_reports_so() {
         let h = Matrix::<2, 2>::identity();
         let g = Vector::<2>::new(-10.0, 10.0);
-        let r = box_qp(
-            &h,
-            &g,
-            &Vector::repeat(-1.0),
-            &Vector::repeat(1.0),
-            &Vector::zeros(),
-            50,
-        );
+        let (r, report) = solve(&h, &g, &Vector::repeat(-1.0), &Vector::repeat(1.0), &Vector::zeros(), 50);
         assert_eq!(r.x, Vector::<2>::new(1.0, -1.0));
-        assert_eq!(r.free.as_slice(), [false, false]);
-        assert_eq!(r.status, BoxQpStatus::AllClamped);
+        assert_eq!(r.free, [false, false]);
+        assert_eq!(report.status, BoxQpStatus::AllClamped);
     }
 }

@@ -7,8 +7,10 @@ use std::sync::Arc;
 use ddp_core::costs::{
     ControlSquared, CostSum, ObstacleHinge, QuadraticCost, QuadraticTerminal, SmoothDistance, StateOnly,
 };
+use ddp_core::dims::{Dyn, VectorN};
 use ddp_core::models::{Car, Unicycle};
-use ddp_core::{ControlBounds, Method, Problem, Settings, Solver, Vector};
+use ddp_core::runtime::{RunTimeSize, RunTimeTerminal};
+use ddp_core::{ControlBounds, Method, Problem, Settings, Solver, Status, Vector};
 
 fn count(f: impl FnOnce()) -> u64 {
     allocation_counter::measure(f).count_total
@@ -80,4 +82,43 @@ fn repeated_solves_allocate_nothing() {
         }
     });
     assert_eq!(n, 0, "box-DDP solves allocated {n} times");
+
+    // The same car at run-time size (how a Python user's model runs): box-DDP's QP and full
+    // DDP's definiteness test of gated passes work in the solver's buffers too.
+    let dyn_running = RunTimeSize::new(
+        QuadraticCost::<U4, U2>::diagonal(&[0.0; 4], &[0.1; 2], Vector::zeros(), Vector::zeros()).unwrap(),
+    );
+    let dyn_car = Problem::new(
+        VectorN::<Dyn>::from_vec(vec![0.0; 4]),
+        Arc::new(RunTimeSize::<Car, 4, 2>::new(Car::new(0.05).unwrap())),
+        Arc::new(dyn_running),
+        Arc::new(RunTimeTerminal(
+            QuadraticTerminal::<U4>::diagonal(&[100.0, 100.0, 10.0, 10.0], Vector::<4>::new(4.0, 0.5, 0.0, 0.0)).unwrap(),
+        )),
+        120,
+    )
+    .unwrap()
+    .with_control_bounds(
+        ControlBounds::new(VectorN::<Dyn>::from_vec(vec![-0.4, -0.5]), VectorN::<Dyn>::from_vec(vec![0.4, 0.5])).unwrap(),
+    )
+    .unwrap();
+    for method in [Method::Ilqr, Method::Ddp] {
+        let mut solver = Solver::new(
+            &dyn_car,
+            Settings {
+                method,
+                ..Settings::default()
+            },
+        )
+        .unwrap();
+        let first = solver.solve(&dyn_car).unwrap();
+        assert_eq!(first.status, Status::Converged, "{method:?}");
+        let n = count(|| {
+            for _ in 0..3 {
+                solver.reset();
+                solver.solve(&dyn_car).unwrap();
+            }
+        });
+        assert_eq!(n, 0, "run-time-size box-DDP ({method:?}) solves allocated {n} times");
+    }
 }

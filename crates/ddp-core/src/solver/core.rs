@@ -17,11 +17,10 @@
 //! | `Delta V(alpha)` | [`Expected`] `dv1`, `dv2` | (13) |
 //! | `mu, Delta` | [`MuSchedule`] `mu`, `dmu` | §II-F |
 //!
-//! Every buffer is allocated by the constructors; the steps allocate nothing for compile-time
-//! sizes and, except box-DDP's QP and full DDP's definiteness fallback, nothing for run-time
-//! sizes either.
+//! Every buffer is allocated by the constructors; the steps allocate nothing, at compile-time
+//! and run-time sizes alike.
 
-use crate::boxqp::box_qp;
+use crate::boxqp::{box_qp, BoxQp};
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
 use crate::error::{check_finite, Error};
 use crate::kernels::{
@@ -373,6 +372,13 @@ where
     g_ux: MatrixN<NU, NX>,
     m_k: VectorN<NU>,
     m_kk: MatrixN<NU, NX>,
+    /// Buffers of box-DDP's QP ([`BoxGains`]).
+    boxqp: BoxQp<NU>,
+    /// Scratch of the definiteness test of full DDP's blocks.
+    d_uu: MatrixN<NU, NU>,
+    d_ux: MatrixN<NU, NX>,
+    d_uxs: MatrixN<NU, NX>,
+    d_xx: MatrixN<NX, NX>,
 }
 
 impl<NX: Dim, NU: Dim> QBlocks<NX, NU>
@@ -400,6 +406,11 @@ where
             g_ux: dims.ux_zeros(),
             m_k: dims.u_zeros(),
             m_kk: dims.ux_zeros(),
+            boxqp: BoxQp::new(dims.nu),
+            d_uu: dims.uu_zeros(),
+            d_ux: dims.ux_zeros(),
+            d_uxs: dims.ux_zeros(),
+            d_xx: dims.xx_zeros(),
         }
     }
 
@@ -511,15 +522,16 @@ where
         k_fb: &mut MatrixN<NU, NX>,
     ) -> Result<GainsInfo, NotPositiveDefinite> {
         let b = self.bounds;
-        let qp = box_qp(
-            &q.q_uu_r,
-            &q.q_u,
-            &(&b.lower - u),
-            &(&b.upper - u),
-            k_ff,
-            self.iterations,
-        );
-        let chol = qp.chol.ok_or(NotPositiveDefinite)?;
+        let qp = &mut q.boxqp;
+        for i in 0..u.len() {
+            qp.lower[i] = b.lower[i] - u[i];
+            qp.upper[i] = b.upper[i] - u[i];
+        }
+        let report = box_qp(qp, &q.q_uu_r, &q.q_u, k_ff, self.iterations);
+        if !report.factored {
+            return Err(NotPositiveDefinite);
+        }
+        let qp = &q.boxqp;
         k_fb.fill(0.0);
         let mut grad = 0.0;
         if qp.free.iter().any(|&f| f) {
@@ -528,7 +540,7 @@ where
                     k_fb[(i, j)] = if qp.free[i] { -q.q_ux_r[(i, j)] } else { 0.0 };
                 }
             }
-            chol.solve_mut(k_fb);
+            cholesky_solve_in_place(&qp.chol, k_fb);
         }
         // Stationarity is measured on the free controls only: a clamped one may keep a gradient
         // that pushes into its bound.
@@ -1088,25 +1100,68 @@ fn second_order_definite<NX: Dim, NU: Dim>(
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    let (r_uu, r_ux) = match placement {
+    // In the blocks' own scratch (no allocation at run-time sizes): `R_uu` into `d_uu`, `R_ux`
+    // into `d_ux`.
+    let QBlocks {
+        g_xx,
+        g_uu,
+        g_ux,
+        d_uu,
+        d_ux,
+        d_uxs,
+        d_xx,
+        ..
+    } = q;
+    match placement {
         Regularization::Control => {
-            let mut m = q.g_uu.clone();
-            for i in 0..m.nrows() {
-                m[(i, i)] += mu;
+            copy(d_uu, g_uu);
+            for i in 0..d_uu.nrows() {
+                d_uu[(i, i)] += mu;
             }
-            (m, q.g_ux.clone())
+            copy(d_ux, g_ux);
         }
-        Regularization::State => (&q.g_uu + fu.tr_mul(fu) * mu, &q.g_ux + fu.tr_mul(fx) * mu),
-    };
-    let sym = (&r_uu + r_uu.transpose()) * 0.5;
-    let Some(c) = sym.cholesky() else {
-        return false;
-    };
-    let schur = &q.g_xx - r_ux.tr_mul(&c.solve(&r_ux));
-    let mut shifted = (&schur + schur.transpose()) * 0.5;
-    let tol = 1e-9 * (1.0 + q.g_xx.amax());
-    for i in 0..shifted.nrows() {
-        shifted[(i, i)] += tol;
+        Regularization::State => {
+            tr_mul_add(d_uu, None, fu, fu);
+            *d_uu *= mu;
+            *d_uu += &*g_uu;
+            tr_mul_add(d_ux, None, fu, fx);
+            *d_ux *= mu;
+            *d_ux += &*g_ux;
+        }
     }
-    shifted.cholesky().is_some()
+    // Q_uu > 0: the Cholesky factor of its symmetric part (read from the lower triangle).
+    symmetrize_lower(d_uu);
+    if !cholesky_in_place(d_uu) {
+        return false;
+    }
+    // The Schur complement Q_xx - Q_ux^T Q_uu^-1 Q_ux, symmetrised, >= 0 up to the tolerance.
+    copy(d_uxs, d_ux);
+    cholesky_solve_in_place(d_uu, d_uxs);
+    tr_mul_add(d_xx, None, d_ux, d_uxs);
+    let n = d_xx.nrows();
+    for j in 0..n {
+        for i in 0..n {
+            d_xx[(i, j)] = g_xx[(i, j)] - d_xx[(i, j)];
+        }
+    }
+    symmetrize_lower(d_xx);
+    let tol = 1e-9 * (1.0 + g_xx.amax());
+    for i in 0..n {
+        d_xx[(i, i)] += tol;
+    }
+    cholesky_in_place(d_xx)
+}
+
+/// Replaces the lower triangle of `m` by that of `(M + M^T) / 2` (what [`cholesky_in_place`]
+/// reads).
+fn symmetrize_lower<N: Dim>(m: &mut MatrixN<N, N>)
+where
+    DefaultAllocator: nalgebra::allocator::Allocator<N, N>,
+{
+    let n = m.nrows();
+    for j in 0..n {
+        for i in j + 1..n {
+            m[(i, j)] = 0.5 * (m[(i, j)] + m[(j, i)]);
+        }
+    }
 }

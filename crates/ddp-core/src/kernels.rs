@@ -386,16 +386,20 @@ fn cholesky_body(l: &mut [f64], n: usize) -> bool {
         }
         let d = d.sqrt();
         l[j * n + j] = d;
+        let r = 1.0 / d;
         for i in j + 1..n {
             let mut s = l[j * n + i];
             for k in 0..j {
                 s -= l[k * n + i] * l[k * n + j];
             }
-            l[j * n + i] = s / d;
+            l[j * n + i] = s * r;
         }
     }
     true
 }
+
+/// Largest order whose pivots' reciprocals [`cholesky_solve_in_place`] keeps on the stack.
+const RECIPROCALS: usize = 16;
 
 /// Solves `L L^T X = B` in place (`l` from [`cholesky_in_place`]), for every column of `b`.
 #[inline(always)]
@@ -415,6 +419,33 @@ where
 #[inline(always)]
 fn cholesky_solve_body(l: &[f64], b: &mut [f64], n: usize, cols: usize) {
     let (l, b) = (&l[..n * n], &mut b[..n * cols]);
+    if n <= RECIPROCALS {
+        // The pivots' reciprocals first, each once and off the substitutions' dependency
+        // chains, which then only multiply: a division's latency is several multiplications',
+        // and the backward passes solve with every knot's `Q_uu` for `1 + nx` columns.
+        let mut r = [0.0; RECIPROCALS];
+        for (i, r) in r[..n].iter_mut().enumerate() {
+            *r = 1.0 / l[i * n + i];
+        }
+        for c in 0..cols {
+            let x = &mut b[c * n..(c + 1) * n];
+            for i in 0..n {
+                let mut s = x[i];
+                for k in 0..i {
+                    s -= l[k * n + i] * x[k];
+                }
+                x[i] = s * r[i];
+            }
+            for i in (0..n).rev() {
+                let mut s = x[i];
+                for k in i + 1..n {
+                    s -= l[i * n + k] * x[k];
+                }
+                x[i] = s * r[i];
+            }
+        }
+        return;
+    }
     for c in 0..cols {
         let x = &mut b[c * n..(c + 1) * n];
         // Forward: L y = b.

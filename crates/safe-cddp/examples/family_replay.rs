@@ -10,8 +10,8 @@
 //!
 //! Environment: `THIRD_MU=3e-2` adds the portfolio's third start
 //! (`Settings::portfolio_third_mu`), `POLISH=1` its polish (`Settings::portfolio_polish`),
-//! `THREADS=2` its concurrent starts (`Settings::portfolio_threads`); `AL_RHO`, `AL_INNER`, `AL_TOL` set the augmented
-//! Lagrangian; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print per-solve details.
+//! `THREADS=2` its concurrent starts (`Settings::portfolio_threads`); `AL_RHO`, `AL_RHO_MAX`,
+//! `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL` set the augmented Lagrangian; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print per-solve details.
 use std::time::Instant;
 
 use safe_cddp::benchmark::BenchmarkProblem;
@@ -63,6 +63,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("THIRD_MU") {
         s.portfolio_third_mu = Some(v);
+    }
+    if let Some(v) = env("AL_RHO_MAX") {
+        s.al_rho_max = v;
+    }
+    if let Some(v) = env("AL_RHO_FACTOR") {
+        s.al_rho_factor = v;
     }
     if let Some(v) = env("AL_TOL") {
         s.al_inner_tolerance = v;

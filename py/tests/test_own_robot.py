@@ -195,11 +195,12 @@ def test_traced_cartpole_swings_up_like_the_casadi_model_and_ipopt_agrees() -> N
     imported = ddpkit.Solver(cartpole_problem(ddpkit.Dynamics.from_casadi(cartpole_casadi())), **tight).solve()
     assert traced.converged, traced.status
     # Two different tapes of one function (numpy-traced, CasADi's instruction list) agree to
-    # rounding, not bit for bit (their sums are formed in different orders), so the stopping test
-    # near convergence may fall one iteration apart; the optimum is the same.
-    assert abs(traced.iterations - imported.iterations) <= 1
+    # rounding, not bit for bit (their sums are formed in different orders), and a gradient
+    # tolerance of 1e-12 sits at that rounding level, so the last iterations of the flat tail
+    # (gradient falling ~0.85x per iteration) may fall a few apart; the optimum is the same.
+    assert abs(traced.iterations - imported.iterations) <= 3
     assert traced.cost == pytest.approx(imported.cost, rel=1e-10)
-    np.testing.assert_allclose(traced.us, imported.us, atol=1e-3)  # one iteration apart
+    np.testing.assert_allclose(traced.us, imported.us, atol=1e-3)  # a few iterations apart
     assert abs(traced.xs[-1, 1] - np.pi) < 0.1  # swung up
     # iLQR (Gauss-Newton dynamics terms) heads to the same optimum.
     gn = ddpkit.Solver(cartpole_problem(traced_cartpole()), method="ilqr", max_iterations=2000, gradient_tolerance=1e-6).solve()

@@ -24,7 +24,8 @@
 //!    polished by one exact solve on the rows it found active.
 //!
 //! [`StepQp::solve_elastic`] (the QP with its constraint rows relaxed by a penalised slack) tries
-//! an active-set method on the KKT system in `(du, s)` first and Clarabel only when it gives up;
+//! an active-set method on the KKT system in `(du, s)` first, then the working sets of at most
+//! `nu + 1` rows in `(du, s)`, and Clarabel only when both give up;
 //! [`StepQp::solve_fast`] is steps 1-2 alone, for a knot whose QP was infeasible in the previous
 //! forward pass.
 //!
@@ -99,15 +100,18 @@ pub struct QpStats {
     /// Elastic QPs posed without first certifying the QP infeasible (the knot's QP was
     /// infeasible before; see [`StepQp::solve_fast`]).
     pub elastic_direct: usize,
-    /// Of `elastic`, answered by the elastic active-set method (the rest went to Clarabel).
+    /// Of `elastic`, answered by the elastic active-set method.
     pub elastic_active_set: usize,
+    /// Of `elastic`, answered by enumerating the working sets (after the active-set method
+    /// gave up; the rest went to Clarabel).
+    pub elastic_enumerated: usize,
 }
 
 impl QpStats {
     /// Solves handed to Clarabel: QPs (`clarabel`) and elastic QPs the active-set method did not
     /// answer.
     pub fn clarabel_solves(&self) -> usize {
-        self.clarabel + self.elastic - self.elastic_active_set
+        self.clarabel + self.elastic - self.elastic_active_set - self.elastic_enumerated
     }
 }
 
@@ -125,6 +129,7 @@ impl std::ops::AddAssign for QpStats {
         self.box_certified += o.box_certified;
         self.elastic_direct += o.elastic_direct;
         self.elastic_active_set += o.elastic_active_set;
+        self.elastic_enumerated += o.elastic_enumerated;
     }
 }
 
@@ -566,43 +571,17 @@ where
         let nu = self.nu.value();
         let n_rows = self.n_rows(a, trust);
         let max_k = nu.min(n_rows);
-        // sum_k C(n_rows, k), stopping as soon as it passes the limit.
-        let mut count = 0usize;
-        let mut c = 1usize;
-        for k in 1..=max_k {
-            c = c.saturating_mul(n_rows + 1 - k) / k;
-            count = count.saturating_add(c);
-            if count > ENUMERATION_LIMIT {
-                return None;
-            }
+        if subsets_up_to(n_rows, max_k) > ENUMERATION_LIMIT {
+            return None;
         }
         let mut lambda = VectorN::<NU>::zeros_generic(self.nu, U1);
-        let mut idx = [0usize; MAX_QP_CONTROLS];
-        for k in 1..=max_k {
-            // The k-subsets of 0..n_rows in lexicographic order.
-            for (j, slot) in idx[..k].iter_mut().enumerate() {
-                *slot = j;
-            }
-            loop {
-                self.working.clear();
-                self.working.extend_from_slice(&idx[..k]);
-                if let Some(du) = self.equality_qp(chol, q, a, b, trust, &mut lambda) {
-                    let dual_ok = (0..k).all(|r| lambda[r] >= -1e-12);
-                    if dual_ok && self.primal_feasible(&du, a, b, trust) {
-                        return Some(du);
-                    }
-                }
-                // Next subset: the rightmost index that can move, then its successors after it.
-                let Some(j) = (0..k).rev().find(|&j| idx[j] < n_rows - k + j) else {
-                    break;
-                };
-                idx[j] += 1;
-                for t in j + 1..k {
-                    idx[t] = idx[t - 1] + 1;
-                }
-            }
-        }
-        None
+        first_subset(n_rows, max_k, |set| {
+            self.working.clear();
+            self.working.extend_from_slice(set);
+            let du = self.equality_qp(chol, q, a, b, trust, &mut lambda)?;
+            let dual_ok = (0..set.len()).all(|r| lambda[r] >= -1e-12);
+            (dual_ok && self.primal_feasible(&du, a, b, trust)).then_some(du)
+        })
     }
 
     /// Every row outside the working set holds at `du`, within [`FEAS_TOL`] (the rows of the
@@ -616,8 +595,8 @@ where
         })
     }
 
-    /// A primal active-set method for the elastic QP of [`StepQp::solve_elastic`], in the
-    /// variables `z = (du, s)`: each step solves the KKT system of the working set exactly,
+    /// Solves the KKT system of the elastic QP on the working set `e_working`, in the variables
+    /// `z = (du, s)`,
     ///
     /// ```text
     /// [ H  0  A_u^T ] [du]   [-q]
@@ -625,25 +604,95 @@ where
     /// [A_u A_s  0   ] [l ]   [ b]
     /// ```
     ///
-    /// drops the most negative multiplier, or adds the most violated row; it returns only a KKT
-    /// point (stationary, primal feasible, multipliers `>= 0`), which is the optimum of this
-    /// convex QP. `None` (hand over to Clarabel) on a dependent working set or after a few
-    /// changes of it. Starts from the most violated soft row at the unconstrained minimiser.
-    #[allow(clippy::too_many_arguments)]
-    fn elastic_active_set(
-        &mut self,
-        chol: &Cholesky<f64, NU>,
-        h: &MatrixN<NU, NU>,
-        q: &VectorN<NU>,
-        a: &[VectorN<NU>],
-        b: &[f64],
-        soft: usize,
-        trust: f64,
-        penalty: f64,
-    ) -> Option<(VectorN<NU>, f64)> {
+    /// leaving `(du, s, l)` in `e_rhs`; `false` on a dependent working set (a pivot below
+    /// `tiny`). Row `n_rows` of the working set is `-s <= 0`.
+    fn elastic_kkt(&mut self, e: &ElasticQp<NU>, tiny: f64) -> bool {
+        let ElasticQp {
+            h,
+            q,
+            a,
+            b,
+            soft,
+            trust,
+            penalty,
+        } = *e;
         let nu = self.nu.value();
+        let s_row = self.n_rows(a, trust);
+        let m = self.e_working.len();
+        let dim = nu + 1 + m;
+        let kkt = &mut self.e_kkt[..dim * dim];
+        let rhs = &mut self.e_rhs[..dim];
+        kkt.fill(0.0);
+        for r in 0..nu {
+            for c in 0..nu {
+                kkt[r * dim + c] = h[(r, c)];
+            }
+            rhs[r] = -q[r];
+        }
+        rhs[nu] = -penalty;
+        for (w, &i) in self.e_working.iter().enumerate() {
+            let row = nu + 1 + w;
+            let (ai, bi, si) = if i == s_row {
+                (None, 0.0, -1.0)
+            } else {
+                let (ai, bi) = Self::row(self.nu, a, b, trust, i);
+                (Some(ai), bi, if i < soft { -1.0 } else { 0.0 })
+            };
+            if let Some(ai) = ai {
+                for j in 0..nu {
+                    kkt[row * dim + j] = ai[j];
+                    kkt[j * dim + row] = ai[j];
+                }
+            }
+            kkt[row * dim + nu] = si;
+            kkt[nu * dim + row] = si;
+            rhs[row] = bi;
+        }
+        solve_dense(kkt, rhs, dim, tiny)
+    }
+
+    /// The most violated row of the elastic QP at `(du, s)` outside the working set (rows
+    /// `0 .. n_rows`, then `-s <= 0` as row `n_rows`), by more than [`FEAS_TOL`] relative to
+    /// `1 + |b_i|`; `None` when every row holds.
+    fn elastic_most_violated(&self, e: &ElasticQp<NU>, du: &VectorN<NU>, s: f64) -> Option<usize> {
+        let ElasticQp { a, b, soft, trust, .. } = *e;
         let n_rows = self.n_rows(a, trust);
-        let s_row = n_rows; // -s <= 0
+        let mut add = (usize::MAX, 0.0);
+        for i in 0..=n_rows {
+            if self.e_working.contains(&i) {
+                continue;
+            }
+            let v = if i == n_rows {
+                -s
+            } else {
+                let (ai, bi) = Self::row(self.nu, a, b, trust, i);
+                let lhs = ai.dot(du) - if i < soft { s } else { 0.0 };
+                (lhs - bi) / (1.0 + bi.abs())
+            };
+            if v > FEAS_TOL && v > add.1 {
+                add = (i, v);
+            }
+        }
+        (add.0 != usize::MAX).then_some(add.0)
+    }
+
+    /// A primal active-set method for the elastic QP of [`StepQp::solve_elastic`]: each step
+    /// solves the KKT system of the working set exactly ([`Self::elastic_kkt`]), drops the most
+    /// negative multiplier, or adds the most violated row; it returns only a KKT point
+    /// (stationary, primal feasible, multipliers `>= 0`), which is the optimum of this convex
+    /// QP. `None` (hand over to the enumeration) on a dependent working set or after a few
+    /// changes of it. Starts from the most violated soft row at the unconstrained minimiser.
+    fn elastic_active_set(&mut self, e: &ElasticQp<NU>, chol: &Cholesky<f64, NU>) -> Option<(VectorN<NU>, f64)> {
+        let ElasticQp {
+            h,
+            q,
+            a,
+            b,
+            soft,
+            penalty,
+            ..
+        } = *e;
+        let nu = self.nu.value();
         let du0 = -chol.solve(q);
         let mut first = (usize::MAX, f64::NEG_INFINITY);
         for i in 0..soft {
@@ -661,39 +710,11 @@ where
         // `du`), so pivots are measured against `H`'s scale.
         let tiny = 1e-14 * h.amax().max(1.0);
         for _ in 0..ELASTIC_ITERATIONS {
-            let m = self.e_working.len();
-            let dim = nu + 1 + m;
-            let kkt = &mut self.e_kkt[..dim * dim];
-            let rhs = &mut self.e_rhs[..dim];
-            kkt.fill(0.0);
-            for r in 0..nu {
-                for c in 0..nu {
-                    kkt[r * dim + c] = h[(r, c)];
-                }
-                rhs[r] = -q[r];
-            }
-            rhs[nu] = -penalty;
-            for (w, &i) in self.e_working.iter().enumerate() {
-                let row = nu + 1 + w;
-                let (ai, bi, si) = if i == s_row {
-                    (None, 0.0, -1.0)
-                } else {
-                    let (ai, bi) = Self::row(self.nu, a, b, trust, i);
-                    (Some(ai), bi, if i < soft { -1.0 } else { 0.0 })
-                };
-                if let Some(ai) = ai {
-                    for j in 0..nu {
-                        kkt[row * dim + j] = ai[j];
-                        kkt[j * dim + row] = ai[j];
-                    }
-                }
-                kkt[row * dim + nu] = si;
-                kkt[nu * dim + row] = si;
-                rhs[row] = bi;
-            }
-            if !solve_dense(kkt, rhs, dim, tiny) {
+            if !self.elastic_kkt(e, tiny) {
                 return None;
             }
+            let m = self.e_working.len();
+            let rhs = &self.e_rhs;
             let du = VectorN::<NU>::from_fn_generic(self.nu, U1, |j, _| rhs[j]);
             let s = rhs[nu];
             // Drop the most negative multiplier first.
@@ -711,31 +732,52 @@ where
                 continue;
             }
             // Add the most violated row.
-            let mut add = (usize::MAX, 0.0);
-            for i in 0..=n_rows {
-                if self.e_working.contains(&i) {
-                    continue;
-                }
-                let v = if i == s_row {
-                    -s
-                } else {
-                    let (ai, bi) = Self::row(self.nu, a, b, trust, i);
-                    let lhs = ai.dot(&du) - if i < soft { s } else { 0.0 };
-                    (lhs - bi) / (1.0 + bi.abs())
-                };
-                if v > FEAS_TOL && v > add.1 {
-                    add = (i, v);
-                }
-            }
-            if add.0 == usize::MAX {
+            let Some(add) = self.elastic_most_violated(e, &du, s) else {
                 return Some((du, s.max(0.0)));
-            }
+            };
             if m == nu + 1 {
                 return None;
             }
-            self.e_working.push(add.0);
+            self.e_working.push(add);
         }
         None
+    }
+
+    /// The elastic QP's KKT point found by trying every working set of at most `nu + 1` rows
+    /// (in `z = (du, s)`; the trust region's sides and `-s <= 0` included) that holds a row in
+    /// `s`, in order of size, or `None` when there are more than [`ENUMERATION_LIMIT`] of them
+    /// or none gives a KKT point (then Clarabel decides). As for [`Self::enumerate`]: the optimal
+    /// `du` is unique (`H` positive definite) and some optimal multipliers are carried by at most
+    /// `nu + 1` independent active rows (Caratheodory); a set without a row in `s` leaves the
+    /// slack's stationarity `p = sum l_i` unmet. It answers the degenerate elastic QPs (ties
+    /// between soft rows, a soft row parallel to a bound) on which the active-set method gives up.
+    fn elastic_enumerate(&mut self, e: &ElasticQp<NU>) -> Option<(VectorN<NU>, f64)> {
+        let (soft, penalty) = (e.soft, e.penalty);
+        let nu = self.nu.value();
+        let n_all = self.n_rows(e.a, e.trust) + 1;
+        let s_row = n_all - 1;
+        let max_k = (nu + 1).min(n_all);
+        if subsets_up_to(n_all, max_k) > ENUMERATION_LIMIT {
+            return None;
+        }
+        let tiny = 1e-14 * e.h.amax().max(1.0);
+        first_subset(n_all, max_k, |set| {
+            // Only sets with a row in `s` (the indices increase: a soft row is first, `-s <= 0`
+            // last).
+            if set[0] >= soft && set[set.len() - 1] != s_row {
+                return None;
+            }
+            self.e_working.clear();
+            self.e_working.extend_from_slice(set);
+            if !self.elastic_kkt(e, tiny) {
+                return None;
+            }
+            let rhs = &self.e_rhs;
+            let dual_ok = (0..set.len()).all(|w| rhs[nu + 1 + w] >= -1e-12 * (1.0 + penalty));
+            let du = VectorN::<NU>::from_fn_generic(self.nu, U1, |j, _| rhs[j]);
+            let s = rhs[nu];
+            (dual_ok && self.elastic_most_violated(e, &du, s).is_none()).then(|| (du, s.max(0.0)))
+        })
     }
 
     fn clarabel_solve(
@@ -822,12 +864,21 @@ where
         assert!(a.len() <= self.max_rows && a.len() == b.len() && soft <= a.len());
         self.stats.elastic += 1;
         if self.method == QpMethod::Fast {
-            if let Some(solved) = h
-                .clone()
-                .cholesky()
-                .and_then(|chol| self.elastic_active_set(&chol, h, q, a, b, soft, trust, penalty))
-            {
+            let e = ElasticQp {
+                h,
+                q,
+                a,
+                b,
+                soft,
+                trust,
+                penalty,
+            };
+            if let Some(solved) = h.clone().cholesky().and_then(|chol| self.elastic_active_set(&e, &chol)) {
                 self.stats.elastic_active_set += 1;
+                return Some(solved);
+            }
+            if let Some(solved) = self.elastic_enumerate(&e) {
+                self.stats.elastic_enumerated += 1;
                 return Some(solved);
             }
         }
@@ -864,6 +915,62 @@ where
             }
         }
     }
+}
+
+/// Calls `visit` with the subsets of `0..n` of 1 to `max_k` elements (indices increasing), by
+/// size and then lexicographically, until it returns `Some`; `max_k <= MAX_QP_CONTROLS + 1`.
+fn first_subset<T>(n: usize, max_k: usize, mut visit: impl FnMut(&[usize]) -> Option<T>) -> Option<T> {
+    let mut idx = [0usize; MAX_QP_CONTROLS + 1];
+    for k in 1..=max_k.min(n) {
+        for (j, slot) in idx[..k].iter_mut().enumerate() {
+            *slot = j;
+        }
+        loop {
+            if let Some(found) = visit(&idx[..k]) {
+                return Some(found);
+            }
+            // Next subset: the rightmost index that can move, then its successors after it.
+            let Some(j) = (0..k).rev().find(|&j| idx[j] < n - k + j) else {
+                break;
+            };
+            idx[j] += 1;
+            for t in j + 1..k {
+                idx[t] = idx[t - 1] + 1;
+            }
+        }
+    }
+    None
+}
+
+/// An elastic QP of [`StepQp::solve_elastic`]: `min 1/2 du' H du + q' du + penalty s` over
+/// `(du, s)` with the first `soft` rows relaxed by `s >= 0` (`a_i' du - s <= b_i`) and the others
+/// and the trust region hard.
+struct ElasticQp<'a, NU: Dim>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    h: &'a MatrixN<NU, NU>,
+    q: &'a VectorN<NU>,
+    a: &'a [VectorN<NU>],
+    b: &'a [f64],
+    soft: usize,
+    trust: f64,
+    penalty: f64,
+}
+
+/// `sum_{k=1..=max_k} C(n, k)`, the number of non-empty subsets of at most `max_k` of `n` items,
+/// stopping (saturated) once it passes [`ENUMERATION_LIMIT`].
+fn subsets_up_to(n: usize, max_k: usize) -> usize {
+    let mut count = 0usize;
+    let mut c = 1usize;
+    for k in 1..=max_k {
+        c = c.saturating_mul(n + 1 - k) / k;
+        count = count.saturating_add(c);
+        if count > ENUMERATION_LIMIT {
+            break;
+        }
+    }
+    count
 }
 
 /// Solves the `dim x dim` system `m x = rhs` (row-major `m`, overwritten) in place by Gaussian
@@ -1014,6 +1121,19 @@ mod tests {
     }
 
     /// A random symmetric positive definite 2x2 `H = L L^T`.
+    /// The hard rows of the forward pass's elastic QPs: `|du_0| <= 1`, `|du_1| <= 0.5`.
+    fn push_control_bounds(a: &mut Vec<Vector<2>>, b: &mut Vec<f64>) {
+        for (row, bound) in [
+            (Vector::<2>::new(1.0, 0.0), 1.0),
+            (Vector::<2>::new(-1.0, 0.0), 1.0),
+            (Vector::<2>::new(0.0, 1.0), 0.5),
+            (Vector::<2>::new(0.0, -1.0), 0.5),
+        ] {
+            a.push(row);
+            b.push(bound);
+        }
+    }
+
     fn spd(rand: &mut impl FnMut() -> f64) -> Matrix<2, 2> {
         let l = Matrix::<2, 2>::new(1.0 + rand().abs(), 0.0, rand(), 0.5 + rand().abs());
         l * l.transpose()
@@ -1126,15 +1246,7 @@ mod tests {
                 a.push(Vector::<2>::new(1e-2 * rand(), 1e-2 * rand()));
                 b.push(0.05 * rand());
             }
-            for (row, bound) in [
-                (Vector::<2>::new(1.0, 0.0), 1.0),
-                (Vector::<2>::new(-1.0, 0.0), 1.0),
-                (Vector::<2>::new(0.0, 1.0), 0.5),
-                (Vector::<2>::new(0.0, -1.0), 0.5),
-            ] {
-                a.push(row);
-                b.push(bound);
-            }
+            push_control_bounds(&mut a, &mut b);
             let trust = if case % 4 == 0 { 0.7 } else { f64::INFINITY };
             let (mut fast, mut exact) = fast_and_clarabel();
             let (du, s) = fast.solve_elastic(&h, &q, &a, &b, soft, trust, 1e3).unwrap();
@@ -1146,6 +1258,49 @@ mod tests {
             answered += fast.stats().elastic_active_set;
         }
         assert!(answered >= 120, "the active-set method answered only {answered} of 200");
+    }
+
+    #[test]
+    fn elastic_enumeration_matches_clarabel_on_degenerate_elastic_qps() {
+        // Seeded infeasible QPs in the forward pass's shape whose elastic optimum is degenerate:
+        // soft rows that a point `v` violates by one common amount (ties in the slack), hard
+        // control-bound sides, sometimes `v` on a bound, the unconstrained minimiser pushed
+        // away. Where the active-set method gives up, the enumeration must find Clarabel's
+        // elastic optimum, and no such QP may reach Clarabel.
+        let mut rand = uniform(0x51_7cc1_b727_220a);
+        let (mut enumerated, mut active_set) = (0, 0);
+        for case in 0..300 {
+            let h = spd(&mut rand);
+            let mut v = Vector::<2>::new(0.5 * rand(), 0.25 * rand());
+            if case % 3 == 0 {
+                v[0] = 1.0; // on the bound du_0 <= 1
+            }
+            let q = -(h * v) + Vector::<2>::new(rand(), rand());
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            let soft = 2 + case % 3;
+            let excess = 0.01 + 0.05 * rand().abs();
+            for _ in 0..soft {
+                let ai = Vector::<2>::new(0.1 * rand(), 0.1 * rand());
+                b.push(ai.dot(&v) - excess);
+                a.push(ai);
+            }
+            push_control_bounds(&mut a, &mut b);
+            let (mut fast, mut exact) = fast_and_clarabel();
+            let (du, s) = fast.solve_elastic(&h, &q, &a, &b, soft, f64::INFINITY, 1e3).unwrap();
+            let (du_c, s_c) = exact.solve_elastic(&h, &q, &a, &b, soft, f64::INFINITY, 1e3).unwrap();
+            assert!(
+                (du - du_c).amax() < 1e-6 && (s - s_c).abs() < 1e-6,
+                "case {case}: {du} {s} against Clarabel's {du_c} {s_c}"
+            );
+            assert_eq!(fast.stats().clarabel_solves(), 0, "case {case}: handed to Clarabel");
+            enumerated += fast.stats().elastic_enumerated;
+            active_set += fast.stats().elastic_active_set;
+        }
+        // The active-set method answers 14 of these, the enumeration the other 286.
+        assert!(
+            enumerated >= 200,
+            "the enumeration answered only {enumerated} of 300 (the active-set method {active_set})"
+        );
     }
 
     #[test]

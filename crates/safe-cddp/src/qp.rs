@@ -108,8 +108,8 @@ pub struct QpStats {
 }
 
 impl QpStats {
-    /// Solves handed to Clarabel: QPs (`clarabel`) and elastic QPs the active-set method did not
-    /// answer.
+    /// Solves handed to Clarabel: QPs (`clarabel`) and elastic QPs that neither the elastic
+    /// active-set method nor the enumeration answered.
     pub fn clarabel_solves(&self) -> usize {
         self.clarabel + self.elastic - self.elastic_active_set - self.elastic_enumerated
     }

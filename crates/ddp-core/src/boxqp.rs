@@ -330,8 +330,11 @@ mod tests {
             // At run-time size the same computation.
             let d = nalgebra::Dyn(3);
             let mut dq = BoxQp::new(d);
-            let dynamic = |m: &Matrix<3, 3>| MatrixN::<nalgebra::Dyn, nalgebra::Dyn>::from_column_slice_generic(d, d, m.as_slice());
-            let vector = |v: &Vector<3>| VectorN::<nalgebra::Dyn>::from_column_slice_generic(d, nalgebra::U1, v.as_slice());
+            let dynamic = |m: &Matrix<3, 3>| {
+                MatrixN::<nalgebra::Dyn, nalgebra::Dyn>::from_column_slice_generic(d, d, m.as_slice())
+            };
+            let vector =
+                |v: &Vector<3>| VectorN::<nalgebra::Dyn>::from_column_slice_generic(d, nalgebra::U1, v.as_slice());
             dq.lower = vector(&lo);
             dq.upper = vector(&hi);
             let dr = box_qp(&mut dq, &dynamic(&h), &vector(&g), &vector(&Vector::zeros()), 100);
@@ -361,7 +364,14 @@ mod tests {
     fn all_clamped_reports_so() {
         let h = Matrix::<2, 2>::identity();
         let g = Vector::<2>::new(-10.0, 10.0);
-        let (r, report) = solve(&h, &g, &Vector::repeat(-1.0), &Vector::repeat(1.0), &Vector::zeros(), 50);
+        let (r, report) = solve(
+            &h,
+            &g,
+            &Vector::repeat(-1.0),
+            &Vector::repeat(1.0),
+            &Vector::zeros(),
+            50,
+        );
         assert_eq!(r.x, Vector::<2>::new(1.0, -1.0));
         assert_eq!(r.free, [false, false]);
         assert_eq!(report.status, BoxQpStatus::AllClamped);

@@ -423,33 +423,18 @@ where
 #[inline(always)]
 fn cholesky_solve_body(l: &[f64], b: &mut [f64], n: usize, cols: usize) {
     let (l, b) = (&l[..n * n], &mut b[..n * cols]);
-    if n <= RECIPROCALS {
-        // The pivots' reciprocals first, each once and off the substitutions' dependency
-        // chains, which then only multiply: a division's latency is several multiplications',
-        // and the backward passes solve with every knot's `Q_uu` for `1 + nx` columns.
-        let mut r = [0.0; RECIPROCALS];
-        for (i, r) in r[..n].iter_mut().enumerate() {
+    // The pivots' reciprocals first, each once and off the substitutions' dependency chains,
+    // which then only multiply: a division's latency is several multiplications', and the
+    // backward passes solve with every knot's `Q_uu` for `1 + nx` columns. (Past
+    // `RECIPROCALS` each use divides `1` by its pivot again: the same values.)
+    let mut table = [0.0; RECIPROCALS];
+    let tabled = n <= RECIPROCALS;
+    if tabled {
+        for (i, r) in table[..n].iter_mut().enumerate() {
             *r = 1.0 / l[i * n + i];
         }
-        for c in 0..cols {
-            let x = &mut b[c * n..(c + 1) * n];
-            for i in 0..n {
-                let mut s = x[i];
-                for k in 0..i {
-                    s -= l[k * n + i] * x[k];
-                }
-                x[i] = s * r[i];
-            }
-            for i in (0..n).rev() {
-                let mut s = x[i];
-                for k in i + 1..n {
-                    s -= l[i * n + k] * x[k];
-                }
-                x[i] = s * r[i];
-            }
-        }
-        return;
     }
+    let recip = |i: usize| if tabled { table[i] } else { 1.0 / l[i * n + i] };
     for c in 0..cols {
         let x = &mut b[c * n..(c + 1) * n];
         // Forward: L y = b.
@@ -458,7 +443,7 @@ fn cholesky_solve_body(l: &[f64], b: &mut [f64], n: usize, cols: usize) {
             for k in 0..i {
                 s -= l[k * n + i] * x[k];
             }
-            x[i] = s / l[i * n + i];
+            x[i] = s * recip(i);
         }
         // Backward: L^T x = y.
         for i in (0..n).rev() {
@@ -466,7 +451,7 @@ fn cholesky_solve_body(l: &[f64], b: &mut [f64], n: usize, cols: usize) {
             for k in i + 1..n {
                 s -= l[i * n + k] * x[k];
             }
-            x[i] = s / l[i * n + i];
+            x[i] = s * recip(i);
         }
     }
 }

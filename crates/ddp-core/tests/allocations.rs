@@ -93,13 +93,18 @@ fn repeated_solves_allocate_nothing() {
         Arc::new(RunTimeSize::<Car, 4, 2>::new(Car::new(0.05).unwrap())),
         Arc::new(dyn_running),
         Arc::new(RunTimeTerminal(
-            QuadraticTerminal::<U4>::diagonal(&[100.0, 100.0, 10.0, 10.0], Vector::<4>::new(4.0, 0.5, 0.0, 0.0)).unwrap(),
+            QuadraticTerminal::<U4>::diagonal(&[100.0, 100.0, 10.0, 10.0], Vector::<4>::new(4.0, 0.5, 0.0, 0.0))
+                .unwrap(),
         )),
         120,
     )
     .unwrap()
     .with_control_bounds(
-        ControlBounds::new(VectorN::<Dyn>::from_vec(vec![-0.4, -0.5]), VectorN::<Dyn>::from_vec(vec![0.4, 0.5])).unwrap(),
+        ControlBounds::new(
+            VectorN::<Dyn>::from_vec(vec![-0.4, -0.5]),
+            VectorN::<Dyn>::from_vec(vec![0.4, 0.5]),
+        )
+        .unwrap(),
     )
     .unwrap();
     for method in [Method::Ilqr, Method::Ddp] {

@@ -1121,6 +1121,27 @@ mod tests {
     }
 
     /// A random symmetric positive definite 2x2 `H = L L^T`.
+    /// Solves one elastic QP (penalty `1e3`) with the fast paths and with Clarabel alone, asserts
+    /// the same `(du, s)`, and returns the fast solver's counters.
+    fn elastic_against_clarabel(
+        case: usize,
+        h: &Matrix<2, 2>,
+        q: &Vector<2>,
+        a: &[Vector<2>],
+        b: &[f64],
+        soft: usize,
+        trust: f64,
+    ) -> QpStats {
+        let (mut fast, mut exact) = fast_and_clarabel();
+        let (du, s) = fast.solve_elastic(h, q, a, b, soft, trust, 1e3).unwrap();
+        let (du_c, s_c) = exact.solve_elastic(h, q, a, b, soft, trust, 1e3).unwrap();
+        assert!(
+            (du - du_c).amax() < 1e-6 && (s - s_c).abs() < 1e-6,
+            "case {case}: {du} {s} against Clarabel's {du_c} {s_c}"
+        );
+        *fast.stats()
+    }
+
     /// The hard rows of the forward pass's elastic QPs: `|du_0| <= 1`, `|du_1| <= 0.5`.
     fn push_control_bounds(a: &mut Vec<Vector<2>>, b: &mut Vec<f64>) {
         for (row, bound) in [
@@ -1248,14 +1269,7 @@ mod tests {
             }
             push_control_bounds(&mut a, &mut b);
             let trust = if case % 4 == 0 { 0.7 } else { f64::INFINITY };
-            let (mut fast, mut exact) = fast_and_clarabel();
-            let (du, s) = fast.solve_elastic(&h, &q, &a, &b, soft, trust, 1e3).unwrap();
-            let (du_c, s_c) = exact.solve_elastic(&h, &q, &a, &b, soft, trust, 1e3).unwrap();
-            assert!(
-                (du - du_c).amax() < 1e-6 && (s - s_c).abs() < 1e-6,
-                "case {case}: {du} {s} against Clarabel's {du_c} {s_c}"
-            );
-            answered += fast.stats().elastic_active_set;
+            answered += elastic_against_clarabel(case, &h, &q, &a, &b, soft, trust).elastic_active_set;
         }
         assert!(answered >= 120, "the active-set method answered only {answered} of 200");
     }
@@ -1285,16 +1299,10 @@ mod tests {
                 a.push(ai);
             }
             push_control_bounds(&mut a, &mut b);
-            let (mut fast, mut exact) = fast_and_clarabel();
-            let (du, s) = fast.solve_elastic(&h, &q, &a, &b, soft, f64::INFINITY, 1e3).unwrap();
-            let (du_c, s_c) = exact.solve_elastic(&h, &q, &a, &b, soft, f64::INFINITY, 1e3).unwrap();
-            assert!(
-                (du - du_c).amax() < 1e-6 && (s - s_c).abs() < 1e-6,
-                "case {case}: {du} {s} against Clarabel's {du_c} {s_c}"
-            );
-            assert_eq!(fast.stats().clarabel_solves(), 0, "case {case}: handed to Clarabel");
-            enumerated += fast.stats().elastic_enumerated;
-            active_set += fast.stats().elastic_active_set;
+            let stats = elastic_against_clarabel(case, &h, &q, &a, &b, soft, f64::INFINITY);
+            assert_eq!(stats.clarabel_solves(), 0, "case {case}: handed to Clarabel");
+            enumerated += stats.elastic_enumerated;
+            active_set += stats.elastic_active_set;
         }
         // The active-set method answers 14 of these, the enumeration the other 286.
         assert!(

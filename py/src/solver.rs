@@ -4,8 +4,8 @@ use std::sync::{Arc, RwLock};
 
 use ddp_core::dims::{Alloc, DefaultAllocator, Dim, MatrixN, VectorN};
 use ddp_core::{
-    LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Solver as CoreSolver,
-    Tolerances,
+    LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Shooting,
+    Solver as CoreSolver, Tolerances,
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -31,6 +31,7 @@ struct SolveOut {
     backward_passes: usize,
     forward_passes: usize,
     solve_time: f64,
+    defect: f64,
     cost_history: Vec<f64>,
     report: Report,
 }
@@ -115,6 +116,7 @@ where
         backward_passes: bp,
         forward_passes: fp,
         solve_time: time,
+        defect: report.defect,
         cost_history,
         report,
     })
@@ -171,6 +173,26 @@ pub(crate) fn parse_method(name: &str) -> CoreResult<Method> {
     }
 }
 
+/// A [`Shooting`] from its Python name (any case), naming `shooting` otherwise.
+pub(crate) fn parse_shooting(name: &str) -> CoreResult<Shooting> {
+    match name.to_ascii_lowercase().as_str() {
+        "single" => Ok(Shooting::Single),
+        "multiple" => Ok(Shooting::Multiple),
+        other => Err(invalid(
+            "shooting",
+            format!("must be 'single' or 'multiple', got '{other}'"),
+        )),
+    }
+}
+
+/// The Python name of a [`Shooting`].
+pub(crate) fn shooting_name(s: Shooting) -> &'static str {
+    match s {
+        Shooting::Single => "single",
+        Shooting::Multiple => "multiple",
+    }
+}
+
 /// The Python name of a [`Regularization`] placement.
 fn placement_name(r: Regularization) -> &'static str {
     match r {
@@ -216,6 +238,7 @@ fn flat_error(e: ddp_core::Error) -> CoreError {
 fn settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("method", method_name(s.method))?;
+    d.set_item("shooting", shooting_name(s.shooting))?;
     d.set_item("max_iterations", s.max_iterations)?;
     d.set_item("gradient_tolerance", s.tolerances.gradient)?;
     d.set_item("cost_tolerance", s.tolerances.cost)?;
@@ -261,6 +284,7 @@ fn count(field: &str, v: i64) -> CoreResult<usize> {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn build_settings(
     method: &str,
+    shooting: &str,
     max_iterations: i64,
     gradient_tolerance: f64,
     cost_tolerance: f64,
@@ -287,6 +311,7 @@ pub(crate) fn build_settings(
     };
     let settings = Settings {
         method: parse_method(method)?,
+        shooting: parse_shooting(shooting)?,
         max_iterations: count("max_iterations", max_iterations)?,
         tolerances: Tolerances {
             gradient: gradient_tolerance,
@@ -334,6 +359,7 @@ impl Solver {
     #[pyo3(signature = (
         problem,
         method = method_name(Settings::default().method),
+        shooting = shooting_name(Settings::default().shooting),
         max_iterations = Settings::default().max_iterations as i64,
         gradient_tolerance = Tolerances::default().gradient,
         cost_tolerance = Tolerances::default().cost,
@@ -351,7 +377,7 @@ impl Solver {
     // The defaults as Python sees them (`inspect.signature`, the stub); tests compare both with
     // `default_settings()`.
     #[pyo3(
-        text_signature = "(problem, method='ilqr', max_iterations=200, gradient_tolerance=1e-9, \
+        text_signature = "(problem, method='ilqr', shooting='single', max_iterations=200, gradient_tolerance=1e-9, \
                              cost_tolerance=1e-14, mu_init=0.0, mu_min=1e-9, mu_max=1e10, mu_factor=1.6, \
                              regularization='control', step_factor=0.5, step_min=0.0009765625, armijo=1e-4, \
                              box_qp_iterations=100, derivative_threads=1)"
@@ -360,6 +386,7 @@ impl Solver {
     fn new(
         problem: Bound<'_, Problem>,
         method: &str,
+        shooting: &str,
         #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
         gradient_tolerance: f64,
         cost_tolerance: f64,
@@ -376,6 +403,7 @@ impl Solver {
     ) -> PyResult<Self> {
         let mut settings = build_settings(
             method,
+            shooting,
             max_iterations,
             gradient_tolerance,
             cost_tolerance,
@@ -553,6 +581,11 @@ pub struct Solution {
     /// Wall time of the solve inside Rust (s).
     #[pyo3(get)]
     solve_time: f64,
+    /// Largest entry of the dynamics defects `f(x_k, u_k) - x_{k+1}` of `xs`, `us`: 0 under
+    /// single shooting (`xs` is the rollout of `us`), at most 1e-9 after a converged
+    /// multiple-shooting solve.
+    #[pyo3(get)]
+    defect: f64,
     /// Cost of the initial rollout and after every accepted step.
     #[pyo3(get)]
     cost_history: Py<PyAny>,
@@ -561,7 +594,7 @@ pub struct Solution {
 }
 
 /// The fields of a `Solution` as pickled, in order.
-const SOLUTION_FIELDS: [&str; 15] = [
+const SOLUTION_FIELDS: [&str; 16] = [
     "xs",
     "us",
     "K",
@@ -575,6 +608,7 @@ const SOLUTION_FIELDS: [&str; 15] = [
     "backward_passes",
     "forward_passes",
     "solve_time",
+    "defect",
     "cost_history",
     "table",
 ];
@@ -596,6 +630,7 @@ impl Solution {
             backward_passes: field(d, "backward_passes")?,
             forward_passes: field(d, "forward_passes")?,
             solve_time: field(d, "solve_time")?,
+            defect: field(d, "defect")?,
             cost_history: field(d, "cost_history")?,
             table: Table::Text(field(d, "table")?),
         })
@@ -603,7 +638,7 @@ impl Solution {
 
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        let values: [Bound<'py, PyAny>; 15] = [
+        let values: [Bound<'py, PyAny>; 16] = [
             self.xs.bind(py).clone(),
             self.us.bind(py).clone(),
             self.gains.bind(py).clone(),
@@ -617,6 +652,7 @@ impl Solution {
             self.backward_passes.into_pyobject(py)?.into_any(),
             self.forward_passes.into_pyobject(py)?.into_any(),
             self.solve_time.into_pyobject(py)?.into_any(),
+            self.defect.into_pyobject(py)?.into_any(),
             self.cost_history.bind(py).clone(),
             self.table.text().into_pyobject(py)?.into_any(),
         ];
@@ -644,6 +680,7 @@ impl Solution {
             backward_passes: out.backward_passes,
             forward_passes: out.forward_passes,
             solve_time: out.solve_time,
+            defect: out.defect,
             cost_history: vec_to_numpy(py, out.cost_history).unbind(),
             table: Table::Core(Box::new(out.report)),
         })
@@ -721,6 +758,7 @@ where
     *,
     threads = None,
     method = method_name(Settings::default().method),
+    shooting = shooting_name(Settings::default().shooting),
     max_iterations = Settings::default().max_iterations as i64,
     gradient_tolerance = Tolerances::default().gradient,
     cost_tolerance = Tolerances::default().cost,
@@ -735,7 +773,7 @@ where
     box_qp_iterations = Settings::default().box_qp_iterations as i64,
 ))]
 #[pyo3(
-    text_signature = "(problems, *, threads=None, method='ilqr', max_iterations=200, gradient_tolerance=1e-9, \
+    text_signature = "(problems, *, threads=None, method='ilqr', shooting='single', max_iterations=200, gradient_tolerance=1e-9, \
                          cost_tolerance=1e-14, mu_init=0.0, mu_min=1e-9, mu_max=1e10, mu_factor=1.6, \
                          regularization='control', step_factor=0.5, step_min=0.0009765625, armijo=1e-4, \
                          box_qp_iterations=100)"
@@ -746,6 +784,7 @@ pub fn solve_batch(
     problems: &Bound<'_, PyAny>,
     #[pyo3(from_py_with = crate::convert::opt_int_i64)] threads: Option<i64>,
     method: &str,
+    shooting: &str,
     #[pyo3(from_py_with = crate::convert::int_i64)] max_iterations: i64,
     gradient_tolerance: f64,
     cost_tolerance: f64,
@@ -761,6 +800,7 @@ pub fn solve_batch(
 ) -> PyResult<Vec<Solution>> {
     let settings = build_settings(
         method,
+        shooting,
         max_iterations,
         gradient_tolerance,
         cost_tolerance,

@@ -43,8 +43,8 @@ pub use dynamics::Dynamics;
 pub use error::{Error, Result};
 pub use problem::{ControlBounds, Knot, Problem};
 pub use solver::{
-    IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Solver, Status,
-    Tolerances,
+    IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Shooting,
+    Solver, Status, Tolerances, DEFECT_TOLERANCE,
 };
 
 /// Column vector of `N` `f64`s.

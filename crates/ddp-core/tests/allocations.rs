@@ -10,7 +10,7 @@ use ddp_core::costs::{
 use ddp_core::dims::{Dyn, VectorN};
 use ddp_core::models::{Car, Unicycle};
 use ddp_core::runtime::{RunTimeSize, RunTimeTerminal};
-use ddp_core::{ControlBounds, Method, Problem, Settings, Solver, Status, Vector};
+use ddp_core::{ControlBounds, Method, Problem, Settings, Shooting, Solver, Status, Vector};
 
 fn count(f: impl FnOnce()) -> u64 {
     allocation_counter::measure(f).count_total
@@ -27,11 +27,16 @@ fn repeated_solves_allocate_nothing() {
         100,
     )
     .unwrap();
-    for method in [Method::Ilqr, Method::Ddp] {
+    for (method, shooting) in [
+        (Method::Ilqr, Shooting::Single),
+        (Method::Ddp, Shooting::Single),
+        (Method::Ddp, Shooting::Multiple),
+    ] {
         let mut solver = Solver::new(
             &p1,
             Settings {
                 method,
+                shooting,
                 ..Settings::default()
             },
         )
@@ -45,7 +50,7 @@ fn repeated_solves_allocate_nothing() {
                 solver.solve(&p1).unwrap();
             }
         });
-        assert_eq!(n, 0, "{method:?}: repeated solves allocated {n} times");
+        assert_eq!(n, 0, "{method:?}, {shooting:?}: repeated solves allocated {n} times");
     }
 
     // The car with box bounds (box-DDP) and a DDPEN-style cost sum with obstacles.

@@ -6,8 +6,8 @@ use std::sync::Arc;
 use ddp_core::costs::{ControlSquared, ObstacleHinge, QuadraticCost, QuadraticTerminal, SmoothDistance};
 use ddp_core::linear::LinearDynamics;
 use ddp_core::{
-    ControlBounds, Error, LineSearchSettings, Matrix, Problem, RegularizationSettings, Settings, Solver, Tolerances,
-    Vector,
+    ControlBounds, Error, LineSearchSettings, Matrix, Problem, RegularizationSettings, Settings, Shooting, Solver,
+    Tolerances, Vector,
 };
 
 fn lq(horizon: usize, x0: Vector<2>) -> ddp_core::Result<Problem<U2, U1>> {
@@ -141,6 +141,25 @@ fn invalid_settings_name_the_field() {
         let e = Solver::new(&p, settings).unwrap_err();
         assert!(message(e).starts_with(field), "expected an error naming {field}");
     }
+}
+
+#[test]
+fn multiple_shooting_rejects_control_bounds() {
+    let multiple = Settings {
+        shooting: Shooting::Multiple,
+        ..Settings::default()
+    };
+    let free = lq(10, Vector::zeros()).unwrap();
+    let bounded = free
+        .clone()
+        .with_control_bounds(ControlBounds::new(Vector::<1>::new(-1.0), Vector::<1>::new(1.0)).unwrap())
+        .unwrap();
+    let e = Solver::new(&bounded, multiple).unwrap_err();
+    assert!(message(e).starts_with("settings.shooting is invalid: multiple shooting does not take control bounds"));
+    // A bounded problem handed to a solver made for a free one: the same error, at solve time.
+    let mut solver = Solver::new(&free, multiple).unwrap();
+    let e = solver.solve(&bounded).unwrap_err();
+    assert!(message(e).starts_with("settings.shooting is invalid"));
 }
 
 #[test]

@@ -7,7 +7,8 @@ use std::sync::Arc;
 use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
 use ddp_core::linear::LinearDynamics;
 use ddp_core::{
-    ControlBounds, Matrix, Method, Problem, Regularization, RegularizationSettings, Settings, Solver, Status, Vector,
+    ControlBounds, Matrix, Method, Problem, Regularization, RegularizationSettings, Settings, Shooting, Solver, Status,
+    Vector,
 };
 
 const NX: usize = 4;
@@ -102,6 +103,7 @@ fn check_against_riccati(settings: Settings) {
         report.cost,
         j_star
     );
+    assert!(report.defect <= 1e-12, "defect {}", report.defect);
 }
 
 #[test]
@@ -115,6 +117,19 @@ fn full_ddp_equals_riccati() {
         method: Method::Ddp,
         ..Settings::default()
     });
+}
+
+#[test]
+fn multiple_shooting_equals_riccati() {
+    // The lifted problem of an LQ problem is a QP: one SQP step from the zero-defect rollout
+    // lands on the Riccati solution, with no defect left.
+    for method in [Method::Ilqr, Method::Ddp] {
+        check_against_riccati(Settings {
+            method,
+            shooting: Shooting::Multiple,
+            ..Settings::default()
+        });
+    }
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! for scans: prints the iteration table and the counts of passes.
 //!
 //! ```text
-//! cargo run --release -p ddp-tape --example swingups [cartpole|acrobot] [ilqr|ddp] [step_factor] [mu_init] [armijo]
+//! cargo run --release -p ddp-tape --example swingups [cartpole|acrobot] [ilqr|ddp] [step_factor] [mu_init] [armijo] [single|multiple]
 //! ```
 //!
 //! The costs are the quadratic built-ins equal to the traced ones (`QuadraticCost` is
@@ -13,7 +13,7 @@ use std::sync::Arc;
 
 use ddp_core::costs::{QuadraticCost, QuadraticTerminal};
 use ddp_core::dims::{U1, U4};
-use ddp_core::{Method, Problem, Settings, Solver, Vector};
+use ddp_core::{Method, Problem, Settings, Shooting, Solver, Vector};
 use ddp_tape::{discretize, Binary, Integrator, TapeBuilder, TapeDynamics, TapeModel, Unary};
 
 fn cartpole() -> Problem<U4, U1> {
@@ -158,11 +158,14 @@ fn main() {
     settings.line_search.step_factor = number(3, settings.line_search.step_factor);
     settings.regularization.mu_init = number(4, settings.regularization.mu_init);
     settings.line_search.armijo = number(5, settings.line_search.armijo);
+    if arg(6) == Some("multiple") {
+        settings.shooting = Shooting::Multiple;
+    }
     let mut solver = Solver::new(&problem, settings).expect("valid settings");
     let r = solver.solve(&problem).expect("a problem of the solver's sizes");
     print!("{}", r.table());
     println!(
-        "backward passes {}, forward passes {}, Gauss-Newton knots {}",
-        r.backward_passes, r.forward_passes, r.gauss_newton_knots
+        "backward passes {}, forward passes {}, Gauss-Newton knots {}, defect {:.1e}",
+        r.backward_passes, r.forward_passes, r.gauss_newton_knots, r.defect
     );
 }

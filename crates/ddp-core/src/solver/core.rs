@@ -27,7 +27,8 @@ use crate::kernels::{
     add_to, cholesky_in_place, cholesky_solve_in_place, copy, mul_to, mul_vec_add, negate, sym_tr_mul2_add,
     sym_tr_mul_add, tr_mul_add, tr_mul_vec_add,
 };
-use crate::solver::settings::{LineSearchSettings, Method, Regularization, RegularizationSettings};
+use crate::solver::settings::{LineSearchSettings, Method, Regularization, RegularizationSettings, Shooting};
+use crate::solver::shooting::MultipleShooting;
 use crate::{ControlBounds, CostDerivatives, Problem, TerminalDerivatives};
 
 /// A backward pass met a `Q_uu` (or KKT matrix) that is not positive definite.
@@ -745,7 +746,10 @@ where
     pub cost: f64,
     /// The threads of the derivative phase ([`Core::set_derivative_threads`]).
     pub derivative_threads: DerivativeThreads,
-    dx: VectorN<NX>,
+    /// Multiple shooting's defects, multipliers, step and filter ([`Core::set_shooting`]);
+    /// `None` under single shooting.
+    pub ms: Option<MultipleShooting<NX, NU>>,
+    pub(crate) dx: VectorN<NX>,
     du: VectorN<NU>,
 }
 
@@ -767,6 +771,7 @@ where
             expected: Expected::default(),
             cost: f64::NAN,
             derivative_threads: DerivativeThreads::default(),
+            ms: None,
             dx: dims.x_zeros(),
             du: dims.u_zeros(),
         }
@@ -887,8 +892,24 @@ where
         Ok(())
     }
 
+    /// Single or multiple shooting from now on: allocates multiple shooting's buffers when it
+    /// is switched on (room for `max_iterations` filter entries), drops them when it is off.
+    pub fn set_shooting(&mut self, shooting: Shooting, max_iterations: usize) {
+        match shooting {
+            Shooting::Single => self.ms = None,
+            Shooting::Multiple => {
+                let capacity = self.traj.us.len();
+                if self.ms.as_ref().is_none_or(|ms| ms.gaps.len() != capacity) {
+                    self.ms = Some(MultipleShooting::new(self.dims, capacity, max_iterations));
+                }
+            }
+        }
+    }
+
     /// The backward pass over the workspace's linearisation, policy and value function with the
-    /// variant's `gains`; the expected improvement lands in `self.expected`.
+    /// variant's `gains`; the expected improvement lands in `self.expected`. Under multiple
+    /// shooting the defects enter the value gradient and the multipliers weight the
+    /// second-order terms ([`crate::solver::shooting`]).
     pub fn backward(
         &mut self,
         problem: &Problem<NX, NU>,
@@ -905,6 +926,11 @@ where
             &mut self.value,
             gains,
             opts,
+            self.ms.as_mut().map(|ms| ShootingTerms {
+                gaps: &ms.gaps,
+                lambda: &ms.lambda,
+                v_x_gap: &mut ms.v_x_gap,
+            }),
             self.n,
         )?;
         Ok(())
@@ -926,6 +952,19 @@ where
     }
 }
 
+/// What multiple shooting adds to a backward pass ([`crate::solver::shooting`]).
+pub struct ShootingTerms<'a, NX: Dim>
+where
+    DefaultAllocator: Alloc<NX, NX>,
+{
+    /// The defects `d_k = f(x_k, u_k) - x_{k+1}`.
+    pub gaps: &'a [VectorN<NX>],
+    /// The multipliers `lambda_k` of the defects (entry 0 unused).
+    pub lambda: &'a [VectorN<NX>],
+    /// Scratch for `V_x' + V_xx' d_k`.
+    pub v_x_gap: &'a mut VectorN<NX>,
+}
+
 /// The Riccati backward pass of DDP (Tassa et al. 2012, eqs. (5)-(11)) over knots `n-1 .. 0`,
 /// with the gains of `gains`:
 ///
@@ -938,7 +977,9 @@ where
 /// ```
 ///
 /// Reads the derivatives in `lin`, writes `policy` and `value`; one text for every solver and
-/// every size. Returns the expected improvement.
+/// every size. Returns the expected improvement. With `shooting` (multiple
+/// shooting) `V_x'` reads `V_x' + V_xx' d_k` and the second-order terms are weighted by
+/// `lambda_{k+1}` ([`crate::solver::shooting`]).
 #[inline(never)]
 pub fn backward_pass<NX: Dim, NU: Dim>(
     problem: &Problem<NX, NU>,
@@ -950,6 +991,7 @@ pub fn backward_pass<NX: Dim, NU: Dim>(
     value: &mut ValueFunction<NX>,
     gains: &mut impl Gains<NX, NU>,
     opts: BackwardOptions,
+    mut shooting: Option<ShootingTerms<'_, NX>>,
     n: usize,
 ) -> Result<Expected, NotPositiveDefinite>
 where
@@ -966,7 +1008,15 @@ where
         let (fx, fu, l) = (&lin.fx[k], &lin.fu[k], &lin.l[k]);
         let (v_x_k, v_x_next) = value.v_x.split_at_mut(k + 1);
         let (v_xx_k, v_xx_next) = value.v_xx.split_at_mut(k + 1);
-        let (v_x, v_xx) = (&v_x_next[0], &v_xx_next[0]);
+        let (mut v_x, v_xx) = (&v_x_next[0], &v_xx_next[0]);
+        // The weights of the dynamics' second derivatives: V_x' (single shooting) or the
+        // multiplier lambda_{k+1} (multiple shooting).
+        let mut weights = v_x;
+        if let Some(ms) = shooting.as_mut() {
+            mul_vec_add(ms.v_x_gap, Some(v_x), v_xx, &ms.gaps[k]);
+            v_x = ms.v_x_gap;
+            weights = &ms.lambda[k + 1];
+        }
         q_blocks(q, l, fx, fu, v_x, v_xx);
         gains.add_curvature(k, &mut q.q_xx);
         if ddp {
@@ -976,8 +1026,15 @@ where
                 copy(&mut q.g_ux, &q.q_ux);
                 copy(&mut q.g_uu, &q.q_uu);
                 let data = lin.data.get(k).map_or(&[][..], Vec::as_slice);
-                knot.dynamics
-                    .add_second_order_kept(&xs[k], &us[k], v_x, data, &mut q.g_xx, &mut q.g_ux, &mut q.g_uu);
+                knot.dynamics.add_second_order_kept(
+                    &xs[k],
+                    &us[k],
+                    weights,
+                    data,
+                    &mut q.g_xx,
+                    &mut q.g_ux,
+                    &mut q.g_uu,
+                );
                 // Full DDP adds V_x' . f_xx etc. Far from a minimum that can make the Q block
                 // indefinite, and through Q_xx the indefiniteness would flow into every V_xx
                 // upstream. So after a failed plain pass (`gated`) this knot keeps the

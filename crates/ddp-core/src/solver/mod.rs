@@ -27,16 +27,18 @@ use std::time::Instant;
 
 pub mod core;
 pub mod settings;
+pub mod shooting;
 
 pub use self::core::{
     armijo_accepts, backward_pass, line_search, BackwardOptions, BoxGains, ClampedGains, Core, DerivativeThreads,
-    Expected, FreeGains, Gains, GainsInfo, Linearization, MuSchedule, NotPositiveDefinite, Policy, QBlocks, Trajectory,
-    Trial, ValueFunction,
+    Expected, FreeGains, Gains, GainsInfo, Linearization, MuSchedule, NotPositiveDefinite, Policy, QBlocks,
+    ShootingTerms, Trajectory, Trial, ValueFunction,
 };
 pub use self::settings::{
-    IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Status,
-    Tolerances, MAX_THREADS,
+    IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Shooting,
+    Status, Tolerances, MAX_THREADS,
 };
+pub use self::shooting::{MultipleShooting, DEFECT_TOLERANCE};
 
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
 use crate::error::{Error, Result};
@@ -62,6 +64,21 @@ where
     report: Report,
 }
 
+/// Multiple shooting does not take control bounds ([`crate::solver::shooting`]): an error
+/// naming `settings.shooting`.
+fn check_shooting<NX: Dim, NU: Dim>(settings: &Settings, problem: &Problem<NX, NU>) -> Result<()>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    if settings.shooting == Shooting::Multiple && problem.bounds().is_some() {
+        return Err(Error::invalid(
+            "settings.shooting",
+            "multiple shooting does not take control bounds; use single shooting (box-DDP) for this problem",
+        ));
+    }
+    Ok(())
+}
+
 /// What one iteration's direction step ended with.
 enum Direction {
     /// A descent direction (the backward pass succeeded).
@@ -79,8 +96,10 @@ where
     /// Validates `settings` and allocates the workspace for `problem`'s sizes and horizon.
     pub fn new(problem: &Problem<NX, NU>, settings: Settings) -> Result<Self> {
         settings.validate()?;
+        check_shooting(&settings, problem)?;
         let mut core = Core::new(problem.dims(), problem.horizon(), &settings.regularization);
         core.set_derivative_threads(settings.derivative_threads)?;
+        core.set_shooting(settings.shooting, settings.max_iterations);
         Ok(Self {
             settings,
             core,
@@ -97,6 +116,7 @@ where
     pub fn set_settings(&mut self, settings: Settings) -> Result<()> {
         settings.validate()?;
         self.core.set_derivative_threads(settings.derivative_threads)?;
+        self.core.set_shooting(settings.shooting, settings.max_iterations);
         if settings.max_iterations + 1 > self.report.log.capacity() {
             self.report
                 .log
@@ -229,6 +249,9 @@ where
         r.gauss_newton_knots = 0;
         self.core.clamp_controls(problem.bounds());
         let cost = self.core.rollout(problem);
+        if let Some(ms) = self.core.ms.as_mut() {
+            ms.reset(); // the rollout has no defects
+        }
         self.report.initial_cost = cost;
         self.core.reg.reset(&self.settings.regularization);
         self.core.expected = Expected {
@@ -303,11 +326,23 @@ where
         let tol = self.settings.tolerances.gradient;
         let e = &self.core.expected;
         let stalled = problem.bounds().is_none() || e.decrease(1.0) <= tol;
-        e.gradient < tol && stalled
+        e.gradient < tol && stalled && self.consistent()
+    }
+
+    /// Whether the trajectory is a rollout up to [`DEFECT_TOLERANCE`] (always under single
+    /// shooting).
+    fn consistent(&self) -> bool {
+        self.core
+            .ms
+            .as_ref()
+            .is_none_or(|ms| ms.max_defect() <= DEFECT_TOLERANCE)
     }
 
     /// The line search on the expected improvement; the accepted step and its cost.
     fn try_step(&mut self, problem: &Problem<NX, NU>) -> Option<(f64, f64)> {
+        if self.core.ms.is_some() {
+            return self.try_step_multiple(problem);
+        }
         let ls = self.settings.line_search;
         let mut new_cost = f64::NAN;
         let core = &mut self.core;
@@ -325,17 +360,58 @@ where
         Some((alpha, new_cost))
     }
 
+    /// Multiple shooting's step: the linear rollout of the Riccati solution, then the filter
+    /// line search on (total defect, cost) ([`crate::solver::shooting`]); the accepted step and
+    /// its cost. The filter takes the current iterate when the step is not an `f-type` one.
+    fn try_step_multiple(&mut self, problem: &Problem<NX, NU>) -> Option<(f64, f64)> {
+        let ls = self.settings.line_search;
+        let core = &mut self.core;
+        let gd = core.ms_direction();
+        // Logged as the expected decrease of a full step: the first-order one.
+        core.expected.dv1 = gd;
+        core.expected.dv2 = 0.0;
+        let cost = core.cost;
+        let forward_passes = &mut self.report.forward_passes;
+        let mut trial = (f64::NAN, false);
+        let alpha = line_search(&ls, |alpha| {
+            let (new_cost, theta) = core.ms_trial(problem, alpha);
+            *forward_passes += 1;
+            let verdict = core
+                .ms
+                .as_ref()
+                .and_then(|ms| ms.filter_accepts(cost, gd, alpha, ls.armijo, theta, new_cost));
+            match verdict {
+                Some(f_type) => {
+                    trial = (new_cost, f_type);
+                    Trial::Accept
+                }
+                None => Trial::Shorter,
+            }
+        })?;
+        let (new_cost, f_type) = trial;
+        if let Some(ms) = core.ms.as_mut() {
+            if !f_type {
+                ms.augment_filter(cost);
+            }
+        }
+        Some((alpha, new_cost))
+    }
+
     /// Makes the trial the nominal trajectory and logs the iteration.
     fn accept_step(&mut self, iteration: usize, alpha: f64, new_cost: f64) {
-        self.core.traj.accept_trial();
-        self.core.cost = new_cost;
+        if self.core.ms.is_some() {
+            self.core.ms_accept(alpha, new_cost);
+        } else {
+            self.core.traj.accept_trial();
+            self.core.cost = new_cost;
+        }
         self.report.iterations += 1;
         self.log(iteration, alpha, true);
     }
 
     /// An accepted step that changed the cost by less than `tolerances.cost` relative to `1 + |J|`.
     fn cost_converged(&self, change: f64) -> bool {
-        change.abs() < self.settings.tolerances.cost * (1.0 + self.core.cost.abs())
+        change.abs() < self.settings.tolerances.cost * (1.0 + self.core.cost.abs()) && self.consistent()
     }
 
     fn log(&mut self, iteration: usize, step: f64, accepted: bool) {
@@ -358,6 +434,7 @@ where
         r.cost = self.core.cost;
         r.gradient = self.core.expected.gradient;
         r.mu = self.core.reg.mu;
+        r.defect = self.core.ms.as_ref().map_or(0.0, |ms| ms.max_defect());
         r.solve_time = start.elapsed();
     }
 
@@ -369,7 +446,8 @@ where
                 expected: format!("{} (the horizon this solver was created for)", self.core.n),
             });
         }
-        self.core.check_dims(problem)
+        self.core.check_dims(problem)?;
+        check_shooting(&self.settings, problem)
     }
 
     /// Phase 1 of an iteration, exposed for benchmarks and solvers built on this one: the

@@ -16,6 +16,21 @@ pub enum Method {
     Ddp,
 }
 
+/// What an iteration steps on: the controls alone (the states are their rollout), or states and
+/// controls joined by the dynamics as constraints ([`crate::solver::shooting`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Shooting {
+    /// Single shooting: the states are the rollout of the controls, always dynamically
+    /// consistent; the forward pass simulates the feedback policy (Tassa et al. 2012).
+    #[default]
+    Single,
+    /// Multiple shooting: a step moves states and controls along the Riccati solution of the
+    /// linearised problem, the defects `f(x_k, u_k) - x_{k+1}` close as it converges, and a
+    /// filter line search accepts steps. Fewer iterations on swing-ups through unstable
+    /// dynamics; the states of an unconverged solve need not be a rollout.
+    Multiple,
+}
+
 /// Where the regularisation `mu` enters the backward pass.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Regularization {
@@ -165,6 +180,8 @@ impl Tolerances {
 pub struct Settings {
     /// iLQR or full DDP.
     pub method: Method,
+    /// Single or multiple shooting.
+    pub shooting: Shooting,
     /// Maximum number of iterations (accepted or rejected steps).
     pub max_iterations: usize,
     /// Stopping tests.
@@ -194,6 +211,7 @@ impl Default for Settings {
     fn default() -> Self {
         Self {
             method: Method::Ilqr,
+            shooting: Shooting::Single,
             max_iterations: 200,
             tolerances: Tolerances::default(),
             regularization: RegularizationSettings::default(),
@@ -304,6 +322,10 @@ pub struct Report {
     pub gradient: f64,
     /// Final regularisation.
     pub mu: f64,
+    /// Largest entry of the dynamics defects `f(x_k, u_k) - x_{k+1}` of the returned
+    /// trajectory: 0 under single shooting, at most [`crate::DEFECT_TOLERANCE`] when a
+    /// multiple-shooting solve converged.
+    pub defect: f64,
     /// Backward passes computed (including regularisation retries).
     pub backward_passes: usize,
     /// Forward rollouts in line searches.
@@ -326,6 +348,7 @@ impl Report {
             initial_cost: f64::NAN,
             gradient: f64::NAN,
             mu: 0.0,
+            defect: 0.0,
             backward_passes: 0,
             forward_passes: 0,
             gauss_newton_knots: 0,

@@ -173,6 +173,7 @@ where
                 &mut st.value,
                 &mut gains,
                 opts,
+                None,
                 n,
             )
             .is_ok();

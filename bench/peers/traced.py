@@ -27,7 +27,9 @@ Each is one discrete step `F(x, u)`, one running cost `l(x, u)`, one terminal co
   (`Constraint.from_casadi(g)` for the obstacle), full DDP (box-DDP where the controls are
   bounded; `SafeCddpSolver`, Xie, Liu and Hedrick 2017, with its default warm-up, where there is a
   constraint: its iterations read `kept + discarded`, the portfolio start not kept being the
-  second), single shooting (zero dynamics defect by construction);
+  second), single shooting (zero dynamics defect by construction); on the two unconstrained
+  swing-ups also `shooting="multiple"` (states and controls stepped together, defects closed as
+  it converges; its rows say so);
 - ddpkit traced: the same equations as numpy functions through `Dynamics.from_function` (and
   `Cost` / `Constraint.from_function`);
 - CasADi + IPOPT / FATROP: `Opti`, multiple shooting `x_{k+1} = F(x_k, u_k)` in stage order
@@ -104,6 +106,9 @@ class Model:
     constraint: Optional[Callable[..., Any]] = None
     #: ddpkit's backward pass: "ddp" (full second order) or "ilqr".
     method: str = "ddp"
+    #: ddpkit `Solver` rows: single shooting, and multiple shooting where listed (the
+    #: unconstrained swing-ups, where the two differ most).
+    shootings: tuple = ("single",)
     functions: tuple = field(default=(), repr=False)
     constraint_fn: Any = field(default=None, repr=False)
 
@@ -148,6 +153,7 @@ def cartpole() -> Model:
         ode=lambda x, u, m: cartpole_ode(x, u, np=m),
         running=lambda x, u, m: 0.05 * (x[0] ** 2 + x[2] ** 2 + x[3] ** 2) + 0.05 * u[0] ** 2,
         terminal=lambda x, m: 50.0 * (x[0] ** 2 + (x[1] - np.pi) ** 2 + x[2] ** 2 + x[3] ** 2),
+        shootings=("single", "multiple"),
     )
 
 
@@ -185,6 +191,7 @@ def acrobot() -> Model:
         ode=acrobot_ode,
         running=lambda x, u, m: 0.01 * (x[2] ** 2 + x[3] ** 2) + 0.01 * u[0] ** 2,
         terminal=lambda x, m: 100.0 * ((x[0] - np.pi) ** 2 + x[1] ** 2) + 10.0 * (x[2] ** 2 + x[3] ** 2),
+        shootings=("single", "multiple"),
     )
 
 
@@ -261,7 +268,7 @@ class Entry:
     result: tuple = ()
 
 
-def ddpkit_entry(m: Model, traced: bool, warm_up: str = "portfolio", portfolio_threads: int = 1) -> Entry:
+def ddpkit_entry(m: Model, traced: bool, warm_up: str = "portfolio", portfolio_threads: int = 1, shooting: str = "single") -> Entry:
     step, running, terminal = m.functions
     con = None
     if traced:
@@ -277,8 +284,8 @@ def ddpkit_entry(m: Model, traced: bool, warm_up: str = "portfolio", portfolio_t
     bounds = {} if m.u_min is None else {"u_min": m.u_min, "u_max": m.u_max}
     problem = ddpkit.Problem(x0=m.x0, dynamics=dyn, running_cost=run, terminal_cost=term, horizon=m.n, **bounds)
     if con is None:
-        solver: Any = ddpkit.Solver(problem, method=m.method, max_iterations=500)
-        name = "Solver"
+        solver: Any = ddpkit.Solver(problem, method=m.method, shooting=shooting, max_iterations=500)
+        name = "Solver" if shooting == "single" else "Solver, multiple shooting"
     else:
         solver = ddpkit.SafeCddpSolver(
             problem, [con], method=m.method, max_iterations=500, warm_up=warm_up, portfolio_threads=portfolio_threads
@@ -409,9 +416,8 @@ def crocoddyl_entry(m: Model, crocoddyl: Any) -> Entry:
 
 def run(m: Model, repeats: int, crocoddyl: Any, croc_repeats: int, warm_up: str = "portfolio", portfolio_threads: int = 1) -> list[dict]:
     m.build()
-    entries = [
-        ddpkit_entry(m, False, warm_up, portfolio_threads),
-        ddpkit_entry(m, True, warm_up, portfolio_threads),
+    entries = [e for sh in m.shootings for e in (ddpkit_entry(m, False, warm_up, portfolio_threads, sh), ddpkit_entry(m, True, warm_up, portfolio_threads, sh))]
+    entries += [
         casadi_entry(m, "ipopt"),
         casadi_entry(m, "fatrop"),
     ]

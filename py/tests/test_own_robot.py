@@ -241,6 +241,10 @@ def test_multiple_shooting_swings_up_in_fewer_iterations_to_the_same_optimum() -
     F = cartpole_casadi()
     steps = np.array([np.asarray(F(multiple.xs[k], multiple.us[k])).ravel() for k in range(80)])
     assert np.max(np.abs(steps - multiple.xs[1:])) == pytest.approx(multiple.defect, rel=1e-6, abs=1e-15)
+    # solve_batch takes the same keyword and gives the same solution.
+    batch = ddpkit.solve_batch([problem], threads=1, method="ddp", shooting="multiple", max_iterations=300)[0]
+    assert batch.iterations == multiple.iterations and batch.cost == multiple.cost
+    np.testing.assert_array_equal(batch.us, multiple.us)
     # It pickles with its defect, and a bounded problem or an unknown name is refused by name.
     assert pickle.loads(pickle.dumps(multiple)) == multiple
     assert pickle.loads(pickle.dumps(multiple)).defect == multiple.defect

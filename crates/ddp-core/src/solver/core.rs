@@ -899,8 +899,12 @@ where
             Shooting::Single => self.ms = None,
             Shooting::Multiple => {
                 let capacity = self.traj.us.len();
-                if self.ms.as_ref().is_none_or(|ms| ms.gaps.len() != capacity) {
-                    self.ms = Some(MultipleShooting::new(self.dims, capacity, max_iterations));
+                match self.ms.as_mut() {
+                    Some(ms) if ms.gaps.len() == capacity => {
+                        // At most one filter entry per iteration: room for them all now.
+                        ms.filter.reserve(max_iterations.saturating_sub(ms.filter.len()));
+                    }
+                    _ => self.ms = Some(MultipleShooting::new(self.dims, capacity, max_iterations)),
                 }
             }
         }

@@ -1,5 +1,6 @@
 //! iLQR / DDP / box-DDP solver with an allocation-free workspace, built from the one DDP core
-//! ([`core`]): it overrides nothing but the gains (free or box-constrained).
+//! ([`core`]): it overrides nothing but the gains (free or box-constrained), and, under
+//! multiple shooting ([`Settings::shooting`], [`shooting`]), the step and its line search.
 //!
 //! | symbol (Tassa et al. 2012/2014) | field | meaning |
 //! |---|---|---|

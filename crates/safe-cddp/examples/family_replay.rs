@@ -11,7 +11,7 @@
 //! Environment: `THIRD_MU=3e-2` adds the portfolio's third start
 //! (`Settings::portfolio_third_mu`), `POLISH=1` its polish (`Settings::portfolio_polish`),
 //! `THREADS=2` its concurrent starts (`Settings::portfolio_threads`); `AL_RHO`, `AL_RHO_MAX`,
-//! `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set the augmented Lagrangian; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print per-solve details.
+//! `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set the augmented Lagrangian; `METHOD=ddp` full DDP; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print per-solve details.
 use std::time::Instant;
 
 use safe_cddp::benchmark::BenchmarkProblem;
@@ -72,6 +72,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("AL_TOL") {
         s.al_inner_tolerance = v;
+    }
+    if std::env::var("METHOD").is_ok_and(|m| m == "ddp") {
+        s.method = ddp_core::Method::Ddp;
     }
     if let Some(v) = env("AL_SWITCH") {
         s.al_switch_violation = v;

@@ -67,6 +67,7 @@ fn solve_impl<NX: Dim, NU: Dim>(
     s: &mut AnySolver,
     p: &AnyProblem,
     us0: Option<&Arr>,
+    xs0: Option<&Arr>,
     warm_start: bool,
 ) -> CoreResult<SolveOut>
 where
@@ -82,6 +83,9 @@ where
     }
     if let Some(us) = us0 {
         s.set_controls(&controls(us, "us0", s.horizon(), s.dims().nu)?)?;
+    }
+    if let Some(xs) = xs0 {
+        s.set_states(&controls(xs, "xs0", s.horizon() + 1, s.dims().nx)?)?;
     }
     let report = s.solve(p)?;
     let (status, iterations, cost, initial_cost, gradient, mu, bp, fp, time) = (
@@ -443,10 +447,20 @@ impl Solver {
     /// The initial guess: `us0` if given (shape `(N, nu)`); otherwise the controls of the last
     /// solve when `warm_start` is true, or zeros. Without `warm_start` every solve is a cold
     /// start (as after `reset()`), `us0` or not. The GIL is released meanwhile.
-    #[pyo3(signature = (us0 = None, warm_start = false))]
-    fn solve(&mut self, py: Python<'_>, us0: Option<&Bound<'_, PyAny>>, warm_start: bool) -> PyResult<Solution> {
+    #[pyo3(signature = (us0 = None, warm_start = false, xs0 = None))]
+    fn solve(
+        &mut self,
+        py: Python<'_>,
+        us0: Option<&Bound<'_, PyAny>>,
+        warm_start: bool,
+        xs0: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Solution> {
         let us0 = match us0 {
             Some(u) if !u.is_none() => Some(finite_arr(u, "us0")?),
+            _ => None,
+        };
+        let xs0 = match xs0 {
+            Some(x) if !x.is_none() => Some(finite_arr(x, "xs0")?),
             _ => None,
         };
         let (nx, nu) = (self.nx, self.nu);
@@ -454,7 +468,7 @@ impl Solver {
         let inner = &mut self.inner;
         let out = py.detach(|| -> CoreResult<SolveOut> {
             Problem::read(shared, |p| {
-                with_dims!(nx, nu, solve_impl(inner, p, us0.as_ref(), warm_start))
+                with_dims!(nx, nu, solve_impl(inner, p, us0.as_ref(), xs0.as_ref(), warm_start))
             })
         });
         // An exception raised by a Python callable model is the solve's error.
@@ -735,7 +749,7 @@ where
         problems,
         threads,
         || new_solver::<NX, NU>(problems[0], settings),
-        |solver, _, p| solve_impl::<NX, NU>(solver, p, None, false),
+        |solver, _, p| solve_impl::<NX, NU>(solver, p, None, None, false),
     )
 }
 

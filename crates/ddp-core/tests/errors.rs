@@ -160,6 +160,19 @@ fn multiple_shooting_rejects_control_bounds() {
     let mut solver = Solver::new(&free, multiple).unwrap();
     let e = solver.solve(&bounded).unwrap_err();
     assert!(message(e).starts_with("settings.shooting is invalid"));
+    // State guesses: multiple shooting only, of the horizon's length, finite.
+    let xs = vec![Vector::<2>::zeros(); 11];
+    let e = Solver::new(&free, Settings::default())
+        .unwrap()
+        .set_states(&xs)
+        .unwrap_err();
+    assert!(message(e).starts_with("settings.shooting is invalid: a state guess needs multiple shooting"));
+    let e = solver.set_states(&xs[..10]).unwrap_err();
+    assert_eq!(message(e), "xs has shape (10, 2), expected (11, 2)");
+    let mut bad = xs.clone();
+    bad[3][1] = f64::INFINITY;
+    let e = message(solver.set_states(&bad).unwrap_err());
+    assert!(e.starts_with("xs[3][1] is not finite"), "{e}");
 }
 
 #[test]

@@ -133,6 +133,43 @@ fn multiple_shooting_equals_riccati() {
 }
 
 #[test]
+fn multiple_shooting_from_a_state_guess_takes_one_step_to_riccati() {
+    // From any states and controls, one SQP step on an LQ problem is exact: the defects of a
+    // guess far from every rollout close in the same step that reaches the optimum.
+    let p = lq();
+    let (gains, p0) = riccati(&p);
+    let prob = problem(&p);
+    let settings = Settings {
+        method: Method::Ddp,
+        shooting: Shooting::Multiple,
+        ..Settings::default()
+    };
+    let mut solver = Solver::new(&prob, settings).unwrap();
+    let xs: Vec<Vector<NX>> = (0..=p.n)
+        .map(|k| Vector::<NX>::from_fn(|i, _| ((k * 3 + i * 5) % 7) as f64 - 3.0))
+        .collect();
+    let us: Vec<Vector<NU>> = (0..p.n).map(|k| Vector::<NU>::new((k % 3) as f64, -1.0)).collect();
+    solver.set_controls(&us).unwrap();
+    solver.set_states(&xs).unwrap();
+    let report = solver.solve(&prob).unwrap().clone();
+    assert_eq!(report.status, Status::Converged, "{}", report.table());
+    assert_eq!(report.iterations, 1, "{}", report.table());
+    assert!(report.defect <= 1e-12, "defect {}", report.defect);
+    let mut x = p.x0;
+    for k in 0..p.n {
+        let u = gains[k] * x;
+        assert!((solver.us()[k] - u).amax() < 1e-9, "u[{k}] differs");
+        assert!((solver.xs()[k] - x).amax() < 1e-9, "x[{k}] differs");
+        x = p.a * x + p.b * u;
+    }
+    let j_star = 0.5 * p.x0.dot(&(p0 * p.x0));
+    assert!((report.cost - j_star).abs() < 1e-9 * j_star);
+    // The guess is used once: the next solve starts from the rollout of the controls.
+    let again = solver.solve(&prob).unwrap();
+    assert_eq!(again.iterations, 0, "{}", again.table());
+}
+
+#[test]
 fn state_regularization_equals_riccati_at_zero_mu() {
     check_against_riccati(Settings {
         regularization: RegularizationSettings {

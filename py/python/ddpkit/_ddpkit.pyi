@@ -606,12 +606,18 @@ class Solver:
     ) -> Self: ...
     def __getnewargs_ex__(self) -> tuple[tuple[Problem], dict[str, Any]]:
         """Pickles as its problem and settings; the unpickled solver has a fresh workspace."""
-    def solve(self, us0: Optional[_ArrayLike] = None, warm_start: bool = False) -> Solution:
+    def solve(
+        self, us0: Optional[_ArrayLike] = None, warm_start: bool = False, xs0: Optional[_ArrayLike] = None
+    ) -> Solution:
         """Solves the problem.
 
         The initial guess is ``us0`` if given (shape ``(N, nu)``), else the controls of the last
         solve when ``warm_start`` is true, else zeros. Without ``warm_start`` every solve is a
-        cold start (as after :meth:`reset`), ``us0`` or not. Bad input raises; the outcome of the
+        cold start (as after :meth:`reset`), ``us0`` or not. With ``shooting="multiple"``,
+        ``xs0`` (shape ``(N+1, nx)``; ``xs0[0]`` is replaced by ``x0``) starts the solve from
+        these states instead of the rollout of the controls, e.g. a straight line to the goal;
+        the solve closes the defects between them. ``xs0`` under single shooting is an
+        ``InvalidInputError`` naming ``settings.shooting``. Bad input raises; the outcome of the
         algorithm is :attr:`Solution.status`.
         """
     def shift(self) -> None:

@@ -804,6 +804,33 @@ where
         Ok(())
     }
 
+    /// Sets the nominal states `x_0 .. x_n` (length `n + 1`, each of size `nx`, finite); errors
+    /// name `xs` or `xs[k]`.
+    pub fn set_states(&mut self, xs: &[VectorN<NX>]) -> crate::Result<()> {
+        let (n, nx) = (self.n, self.dims.nx());
+        if xs.len() != n + 1 {
+            return Err(Error::Shape {
+                field: "xs".into(),
+                got: format!("({}, {nx})", xs.len()),
+                expected: format!("({}, {nx})", n + 1),
+            });
+        }
+        for (k, x) in xs.iter().enumerate() {
+            if x.len() != nx {
+                return Err(Error::Shape {
+                    field: format!("xs[{k}]"),
+                    got: format!("({},)", x.len()),
+                    expected: format!("({nx},)"),
+                });
+            }
+            check_finite(&format!("xs[{k}]"), x.iter())?;
+        }
+        for (dst, src) in self.traj.xs.iter_mut().zip(xs) {
+            dst.copy_from(src);
+        }
+        Ok(())
+    }
+
     /// Rejects a problem of other sizes than this workspace's, naming `problem`.
     pub fn check_dims(&self, problem: &Problem<NX, NU>) -> crate::Result<()> {
         let (d, mine) = (problem.dims(), self.dims);

@@ -141,11 +141,34 @@ where
     pub fn reset(&mut self) {
         self.core.traj.us.iter_mut().for_each(|u| u.fill(0.0));
         self.core.policy.clear();
+        if let Some(ms) = self.core.ms.as_mut() {
+            ms.state_guess = false;
+        }
     }
 
     /// Sets the initial guess of the next solve (length `N`, each of size `nu`, finite).
     pub fn set_controls(&mut self, us: &[VectorN<NU>]) -> Result<()> {
         self.core.set_controls(us)?;
+        Ok(())
+    }
+
+    /// Multiple shooting: the next solve starts from these states (length `N + 1`, each of size
+    /// `nx`, finite; `x_0` is replaced by the problem's) with the controls in the workspace,
+    /// instead of from the rollout of the controls, and closes the defects between them (a
+    /// straight line to the goal, a demonstration, a previous solution's states). Errors name
+    /// `xs` or `xs[k]`, or `settings.shooting` under single shooting, whose states are always
+    /// the rollout. [`Solver::reset`] drops the guess.
+    pub fn set_states(&mut self, xs: &[VectorN<NX>]) -> Result<()> {
+        if self.core.ms.is_none() {
+            return Err(Error::invalid(
+                "settings.shooting",
+                "a state guess needs multiple shooting (single shooting's states are the rollout of the controls)",
+            ));
+        }
+        self.core.set_states(xs)?;
+        if let Some(ms) = self.core.ms.as_mut() {
+            ms.state_guess = true;
+        }
         Ok(())
     }
 
@@ -249,10 +272,15 @@ where
         r.forward_passes = 0;
         r.gauss_newton_knots = 0;
         self.core.clamp_controls(problem.bounds());
-        let cost = self.core.rollout(problem);
-        if let Some(ms) = self.core.ms.as_mut() {
-            ms.reset(); // the rollout has no defects
-        }
+        let cost = if self.core.ms.as_ref().is_some_and(|ms| ms.state_guess) {
+            self.core.ms_start_from_states(problem)
+        } else {
+            let cost = self.core.rollout(problem);
+            if let Some(ms) = self.core.ms.as_mut() {
+                ms.reset(); // the rollout has no defects
+            }
+            cost
+        };
         self.report.initial_cost = cost;
         self.core.reg.reset(&self.settings.regularization);
         self.core.expected = Expected {

@@ -77,6 +77,9 @@ where
     pub filter: Vec<(f64, f64)>,
     /// Scratch of the backward pass: `V_x' + V_xx' d_k`.
     pub v_x_gap: VectorN<NX>,
+    /// The next solve starts from the states in the workspace ([`crate::Solver::set_states`])
+    /// rather than from the rollout of the controls.
+    pub state_guess: bool,
 }
 
 impl<NX: Dim, NU: Dim> MultipleShooting<NX, NU>
@@ -98,6 +101,7 @@ where
             theta_0: 0.0,
             filter: Vec::with_capacity(filter_capacity),
             v_x_gap: dims.x_zeros(),
+            state_guess: false,
         }
     }
 
@@ -147,6 +151,31 @@ impl<NX: Dim, NU: Dim> Core<NX, NU>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
+    /// The start of a solve from the states and controls in the workspace (a state guess):
+    /// `x_0` replaced by the problem's, the defects between the states, zero multipliers, an
+    /// empty filter. Returns the cost.
+    pub fn ms_start_from_states(&mut self, problem: &Problem<NX, NU>) -> f64 {
+        let n = self.n;
+        self.traj.xs[0].copy_from(problem.x0());
+        let Some(ms) = self.ms.as_mut() else {
+            return f64::NAN;
+        };
+        ms.reset();
+        ms.state_guess = false;
+        let t = &self.traj;
+        let mut cost = 0.0;
+        for (k, knot) in problem.knots()[..n].iter().enumerate() {
+            cost += knot.cost.value(&t.xs[k], &t.us[k]);
+            let g = &mut ms.gaps[k];
+            knot.dynamics.step_into(&t.xs[k], &t.us[k], g);
+            *g -= &t.xs[k + 1];
+            ms.theta += g.iter().map(|v| v.abs()).sum::<f64>();
+        }
+        ms.theta_0 = ms.theta;
+        self.cost = cost + problem.terminal().value(&t.xs[n]);
+        self.cost
+    }
+
     /// The step of the last backward pass by the linear rollout
     /// `dx_{k+1} = f_x dx_k + f_u du_k + d_k`, `du_k = k_k + K_k dx_k`, and the subproblem's
     /// multipliers `V_x + V_xx dx`.

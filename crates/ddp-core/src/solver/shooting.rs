@@ -31,7 +31,10 @@
 //! Control bounds are not taken (the solver rejects a bounded problem under multiple
 //! shooting): box-DDP's gains keep `u + k` within them only at `dx = 0`, and neither clamping
 //! the step's controls in the linear rollout nor in the trial gives a method that converges
-//! reliably (a pendulum that must pump against its torque limit stalls either way).
+//! reliably (a pendulum that must pump against its torque limit stalls either way). With the
+//! step's controls clamped and, when the filter rejects every step, a restoration step (the
+//! feedback rollout around the current states, closing every defect) the pendulum converged
+//! (47 iterations, box-DDP 28) but the cart-pole with a 10 N limit did not (box-DDP: 58).
 
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, VectorN};
 use crate::kernels::mul_vec_add;

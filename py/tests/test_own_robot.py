@@ -232,6 +232,7 @@ def test_multiple_shooting_swings_up_in_fewer_iterations_to_the_same_optimum() -
     single = ddpkit.Solver(problem, method="ddp", max_iterations=300).solve()
     solver = ddpkit.Solver(problem, method="ddp", shooting="multiple", max_iterations=300)
     assert solver.settings["shooting"] == "multiple"
+    assert pickle.loads(pickle.dumps(solver)).settings == solver.settings
     multiple = solver.solve()
     assert single.converged and multiple.converged, (single.status, multiple.status)
     assert single.defect == 0.0 and 0.0 <= multiple.defect <= 1e-9

@@ -23,6 +23,10 @@
 //! near feasibility with a descent direction it needs the Armijo decrease of the cost
 //! (`f-type`), otherwise enough decrease of either, not dominated by an earlier iterate.
 //!
+//! Weighting the second derivatives by the backward pass's own costate `V_x' + V_xx' d_k`
+//! instead (DDP's choice, no multiplier state) took 72 iterations on that cart-pole and 126 on
+//! the acrobot.
+//!
 //! Lifting the states this way lets a swing-up move the whole trajectory at once instead of
 //! through the rollout of an unstable system: the cart-pole swing-up of the examples converges
 //! in about 25 iterations instead of 60 (the same count as IPOPT on the same transcription).

@@ -23,14 +23,13 @@
 //! near feasibility with a descent direction it needs the Armijo decrease of the cost
 //! (`f-type`), otherwise enough decrease of either, not dominated by an earlier iterate.
 //!
-//! Weighting the second derivatives by the backward pass's own costate `V_x' + V_xx' d_k`
-//! instead (DDP's choice, no multiplier state) took 72 iterations on that cart-pole and 126 on
-//! the acrobot.
-//!
 //! Lifting the states this way lets a swing-up move the whole trajectory at once instead of
 //! through the rollout of an unstable system: the cart-pole swing-up of the examples converges
-//! in about 25 iterations instead of 60 (the same count as IPOPT on the same transcription).
-//! It can also be slower: on the acrobot swing-up single shooting needs fewer iterations.
+//! in 24 iterations instead of 60 (the same count as IPOPT on the same transcription).
+//! It can also be slower: on the acrobot swing-up single shooting needs fewer iterations (86
+//! against 122). Weighting the second derivatives by the backward pass's own costate
+//! `V_x' + V_xx' d_k` instead of the multipliers (DDP's choice, no multiplier state) took 72
+//! iterations on that cart-pole and 126 on the acrobot.
 //!
 //! Control bounds are not taken (the solver rejects a bounded problem under multiple
 //! shooting): box-DDP's gains keep `u + k` within them only at `dx = 0`, and neither clamping

@@ -776,7 +776,9 @@ impl Program {
         required.dedup();
         // With one sweep, the Jacobian's tangents also materialise the ones the curvature
         // reads. The arguments of nonlinear nodes are materialised where those nodes are
-        // compiled either way, so every entry is formed by the same operations as in two sweeps.
+        // compiled either way, but a linear combination the Jacobian materialises may enter an
+        // argument's tangent as one term where two sweeps sum its parts: the Hessians agree to
+        // rounding (a random tape found a 1-ulp difference), each program with itself bit for bit.
         let mut jac_required = outputs.clone();
         if needs.one_sweep {
             jac_required.extend(&required);

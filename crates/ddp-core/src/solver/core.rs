@@ -780,55 +780,13 @@ where
     /// Sets the nominal controls of the active horizon (length `n`, each of size `nu`, finite);
     /// errors name `us` or `us[k]`.
     pub fn set_controls(&mut self, us: &[VectorN<NU>]) -> crate::Result<()> {
-        let (n, nu) = (self.n, self.dims.nu());
-        if us.len() != n {
-            return Err(Error::Shape {
-                field: "us".into(),
-                got: format!("({}, {nu})", us.len()),
-                expected: format!("({n}, {nu})"),
-            });
-        }
-        for (k, u) in us.iter().enumerate() {
-            if u.len() != nu {
-                return Err(Error::Shape {
-                    field: format!("us[{k}]"),
-                    got: format!("({},)", u.len()),
-                    expected: format!("({nu},)"),
-                });
-            }
-            check_finite(&format!("us[{k}]"), u.iter())?;
-        }
-        for (dst, src) in self.traj.us.iter_mut().zip(us) {
-            dst.copy_from(src);
-        }
-        Ok(())
+        copy_checked("us", us, &mut self.traj.us[..self.n], self.dims.nu())
     }
 
     /// Sets the nominal states `x_0 .. x_n` (length `n + 1`, each of size `nx`, finite); errors
     /// name `xs` or `xs[k]`.
     pub fn set_states(&mut self, xs: &[VectorN<NX>]) -> crate::Result<()> {
-        let (n, nx) = (self.n, self.dims.nx());
-        if xs.len() != n + 1 {
-            return Err(Error::Shape {
-                field: "xs".into(),
-                got: format!("({}, {nx})", xs.len()),
-                expected: format!("({}, {nx})", n + 1),
-            });
-        }
-        for (k, x) in xs.iter().enumerate() {
-            if x.len() != nx {
-                return Err(Error::Shape {
-                    field: format!("xs[{k}]"),
-                    got: format!("({},)", x.len()),
-                    expected: format!("({nx},)"),
-                });
-            }
-            check_finite(&format!("xs[{k}]"), x.iter())?;
-        }
-        for (dst, src) in self.traj.xs.iter_mut().zip(xs) {
-            dst.copy_from(src);
-        }
-        Ok(())
+        copy_checked("xs", xs, &mut self.traj.xs[..=self.n], self.dims.nx())
     }
 
     /// Rejects a problem of other sizes than this workspace's, naming `problem`.
@@ -981,6 +939,35 @@ where
             self.policy.k_fb[n - 1] = self.policy.k_fb[n - 2].clone();
         }
     }
+}
+
+/// Copies `src` into `dst` after checking that it has `dst.len()` vectors of `dim` finite
+/// entries; errors name `field` or `field[k]`.
+fn copy_checked<N: Dim>(field: &str, src: &[VectorN<N>], dst: &mut [VectorN<N>], dim: usize) -> crate::Result<()>
+where
+    DefaultAllocator: Alloc<N, N>,
+{
+    if src.len() != dst.len() {
+        return Err(Error::Shape {
+            field: field.into(),
+            got: format!("({}, {dim})", src.len()),
+            expected: format!("({}, {dim})", dst.len()),
+        });
+    }
+    for (k, v) in src.iter().enumerate() {
+        if v.len() != dim {
+            return Err(Error::Shape {
+                field: format!("{field}[{k}]"),
+                got: format!("({},)", v.len()),
+                expected: format!("({dim},)"),
+            });
+        }
+        check_finite(&format!("{field}[{k}]"), v.iter())?;
+    }
+    for (d, v) in dst.iter_mut().zip(src) {
+        d.copy_from(v);
+    }
+    Ok(())
 }
 
 /// What multiple shooting adds to a backward pass ([`crate::solver::shooting`]).

@@ -161,25 +161,21 @@ where
     /// `x_0` replaced by the problem's, the defects between the states, zero multipliers, an
     /// empty filter. Returns the cost.
     pub fn ms_start_from_states(&mut self, problem: &Problem<NX, NU>) -> f64 {
-        let n = self.n;
         self.traj.xs[0].copy_from(problem.x0());
         let Some(ms) = self.ms.as_mut() else {
             return f64::NAN;
         };
         ms.reset();
         ms.state_guess = false;
-        let t = &self.traj;
-        let mut cost = 0.0;
-        for (k, knot) in problem.knots()[..n].iter().enumerate() {
-            cost += knot.cost.value(&t.xs[k], &t.us[k]);
-            let g = &mut ms.gaps[k];
-            knot.dynamics.step_into(&t.xs[k], &t.us[k], g);
-            *g -= &t.xs[k + 1];
-            ms.theta += g.iter().map(|v| v.abs()).sum::<f64>();
+        // The guess is the trial of a zero step.
+        ms.dxs.iter_mut().for_each(|d| d.fill(0.0));
+        ms.dus.iter_mut().for_each(|d| d.fill(0.0));
+        let (cost, theta) = self.ms_trial(problem, 0.0);
+        self.ms_accept(0.0, cost);
+        if let Some(ms) = self.ms.as_mut() {
+            ms.theta_0 = theta;
         }
-        ms.theta_0 = ms.theta;
-        self.cost = cost + problem.terminal().value(&t.xs[n]);
-        self.cost
+        cost
     }
 
     /// The step of the last backward pass by the linear rollout

@@ -810,6 +810,8 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("warm_up", s.warm_up.as_str())?;
     d.set_item("portfolio_polish", s.portfolio_polish)?;
     d.set_item("portfolio_threads", s.portfolio_threads)?;
+    d.set_item("portfolio_third_mu", s.portfolio_third_mu)?;
+    d.set_item("portfolio_apart", s.portfolio_apart)?;
     Ok(d)
 }
 
@@ -834,6 +836,8 @@ fn settings_from(
     warm_up: &str,
     portfolio_polish: bool,
     portfolio_threads: i64,
+    portfolio_third_mu: Option<f64>,
+    portfolio_apart: f64,
 ) -> CoreResult<Settings> {
     let method = parse_method(method)?;
     let warm_up = [
@@ -876,6 +880,8 @@ fn settings_from(
         warm_up,
         portfolio_polish,
         portfolio_threads,
+        portfolio_third_mu,
+        portfolio_apart,
         ..Settings::default()
     };
     s.validate()?;
@@ -1083,12 +1089,15 @@ impl SafeCddpSolver {
                         qp_method = qp_name(Settings::default().qp_method),
                         warm_up = Settings::default().warm_up.as_str(),
                         portfolio_polish = Settings::default().portfolio_polish,
-                        portfolio_threads = Settings::default().portfolio_threads as i64))]
+                        portfolio_threads = Settings::default().portfolio_threads as i64,
+                        portfolio_third_mu = Settings::default().portfolio_third_mu,
+                        portfolio_apart = Settings::default().portfolio_apart))]
     // The defaults as Python sees them; tests compare them and the stub with `default_settings`.
     #[pyo3(
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
-                             portfolio_polish=False, portfolio_threads=1)"
+                             portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.03, \
+                             portfolio_apart=0.001)"
     )]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -1102,6 +1111,8 @@ impl SafeCddpSolver {
         warm_up: &str,
         portfolio_polish: bool,
         #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
+        portfolio_third_mu: Option<f64>,
+        portfolio_apart: f64,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
         let settings = settings_from(
@@ -1112,6 +1123,8 @@ impl SafeCddpSolver {
             warm_up,
             portfolio_polish,
             portfolio_threads,
+            portfolio_third_mu,
+            portfolio_apart,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1550,6 +1563,8 @@ impl Mpc {
             d.warm_up.as_str(),
             d.portfolio_polish,
             d.portfolio_threads as i64,
+            d.portfolio_third_mu,
+            d.portfolio_apart,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1848,11 +1863,14 @@ where
                     qp_method = qp_name(Settings::default().qp_method),
                     warm_up = Settings::default().warm_up.as_str(),
                     portfolio_polish = Settings::default().portfolio_polish,
-                    portfolio_threads = Settings::default().portfolio_threads as i64))]
+                    portfolio_threads = Settings::default().portfolio_threads as i64,
+                    portfolio_third_mu = Settings::default().portfolio_third_mu,
+                    portfolio_apart = Settings::default().portfolio_apart))]
 #[pyo3(
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
-                             portfolio_polish=False, portfolio_threads=1)"
+                             portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.03, \
+                             portfolio_apart=0.001)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn solve_batch_safe(
@@ -1868,6 +1886,8 @@ fn solve_batch_safe(
     warm_up: &str,
     portfolio_polish: bool,
     #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
+    portfolio_third_mu: Option<f64>,
+    portfolio_apart: f64,
 ) -> PyResult<Vec<SafeSolution>> {
     let settings = settings_from(
         method,
@@ -1877,6 +1897,8 @@ fn solve_batch_safe(
         warm_up,
         portfolio_polish,
         portfolio_threads,
+        portfolio_third_mu,
+        portfolio_apart,
     )?;
     let batch = crate::batch::problems_of(problems)?;
     let threads = crate::batch::threads_of(threads)?;

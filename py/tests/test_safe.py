@@ -79,9 +79,12 @@ def test_every_warm_up_reaches_p3s_optimum_also_from_a_start_through_the_obstacl
 def test_the_portfolio_polish_is_selectable_never_worse_and_pickles() -> None:
     import pickle
 
-    assert ddpkit.default_settings("SafeCddpSolver")["portfolio_polish"] is False
-    plain = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles()).solve()
-    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=True)
+    assert ddpkit.default_settings("SafeCddpSolver")["portfolio_polish"] is True
+    two = {"portfolio_polish": False, "portfolio_third_mu": None}
+    plain = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), **two).solve()
+    # portfolio_apart=0: the polish runs even though P3's two starts agree.
+    always = {"portfolio_polish": True, "portfolio_third_mu": None, "portfolio_apart": 0.0}
+    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), **always)
     polished = solver.solve()
     # P3's kept solution is the augmented Lagrangian's: the polish runs and cannot end worse.
     assert polished.converged and polished.max_violation <= 1e-6
@@ -90,17 +93,40 @@ def test_the_portfolio_polish_is_selectable_never_worse_and_pickles() -> None:
     again = pickle.loads(pickle.dumps(solver))
     assert again == solver and again != ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles())
     np.testing.assert_array_equal(again.solve().us, polished.us)
-    batch = ddpkit.solve_batch_safe([p3_problem()], p3_obstacles(), threads=1, portfolio_polish=True)
+    batch = ddpkit.solve_batch_safe([p3_problem()], p3_obstacles(), threads=1, **always)
     np.testing.assert_array_equal(batch[0].us, polished.us)
+
+
+def test_the_extra_starts_run_only_where_the_first_two_end_apart() -> None:
+    import pickle
+
+    d = ddpkit.default_settings("SafeCddpSolver")
+    assert (d["portfolio_third_mu"], d["portfolio_apart"]) == (0.03, 1e-3)
+    # P3's two starts end within 1e-10 of each other: the default is the two-start portfolio.
+    two = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=False, portfolio_third_mu=None).solve()
+    default = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles()).solve()
+    np.testing.assert_array_equal(default.us, two.us)
+    assert (default.iterations, default.discarded_iterations) == (two.iterations, two.discarded_iterations)
+    # With the gate open (0) the third start and the polish run; the kept solution is no worse.
+    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_apart=0.0)
+    always = solver.solve()
+    assert always.iterations + always.discarded_iterations > two.iterations + two.discarded_iterations
+    assert always.max_violation <= 1e-6 and always.cost <= two.cost
+    again = pickle.loads(pickle.dumps(solver))
+    assert again == solver and again != ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles())
+    np.testing.assert_array_equal(again.solve().us, always.us)
+    for field, bad in (("portfolio_apart", -1e-3), ("portfolio_apart", float("nan")), ("portfolio_third_mu", 0.0)):
+        with pytest.raises(ValueError, match=field):
+            ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), **{field: bad})
 
 
 def test_two_portfolio_threads_give_the_one_thread_solution_and_pickle() -> None:
     import pickle
 
     assert ddpkit.default_settings("SafeCddpSolver")["portfolio_threads"] == 1
-    for polish in (False, True):
-        one = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=polish).solve()
-        solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=polish, portfolio_threads=2)
+    for apart in (1e-3, 0.0):  # the default, and with the third start and the polish run
+        one = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_apart=apart).solve()
+        solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_apart=apart, portfolio_threads=2)
         for _ in range(2):  # the second solve reuses the sibling workspace
             two = solver.solve()
             np.testing.assert_array_equal(two.us, one.us)
@@ -110,7 +136,7 @@ def test_two_portfolio_threads_give_the_one_thread_solution_and_pickle() -> None
                 one.discarded_iterations,
             )
     again = pickle.loads(pickle.dumps(solver))
-    assert again == solver and again != ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=True)
+    assert again == solver and again != ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_apart=0.0)
     batch = ddpkit.solve_batch_safe([p3_problem()] * 2, p3_obstacles(), threads=2, portfolio_threads=2)
     np.testing.assert_array_equal(batch[1].us, ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles()).solve().us)
     for bad in (0, 3):

@@ -8,10 +8,14 @@
 //!     [mu_factor] [mu_final] [inner] [relaxation]
 //! ```
 //!
-//! Environment: `THIRD_MU=3e-2` adds the portfolio's third start
-//! (`Settings::portfolio_third_mu`), `POLISH=1` its polish (`Settings::portfolio_polish`),
-//! `THREADS=2` its concurrent starts (`Settings::portfolio_threads`); `AL_RHO`, `AL_RHO_MAX`,
-//! `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set the augmented Lagrangian; `METHOD=ddp` full DDP; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print per-solve details.
+//! Environment: `THIRD_MU=MU` sets the portfolio's third start (`Settings::portfolio_third_mu`;
+//! 0: none), `POLISH=0|1` its polish (`Settings::portfolio_polish`), `APART=GAP` when they run
+//! (`Settings::portfolio_apart`), `THREADS=2` its concurrent starts
+//! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
+//! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
+//! the augmented Lagrangian; `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
+//! tolerances; `METHOD=ddp` full DDP; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print
+//! per-solve details.
 use std::time::Instant;
 
 use safe_cddp::benchmark::BenchmarkProblem;
@@ -62,7 +66,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         s.portfolio_threads = v as usize;
     }
     if let Some(v) = env("THIRD_MU") {
-        s.portfolio_third_mu = Some(v);
+        // 0: no third start.
+        s.portfolio_third_mu = (v > 0.0).then_some(v);
+    }
+    if let Some(v) = env("APART") {
+        s.portfolio_apart = v;
     }
     if let Some(v) = env("AL_RHO_MAX") {
         s.al_rho_max = v;
@@ -75,6 +83,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if std::env::var("METHOD").is_ok_and(|m| m == "ddp") {
         s.method = ddp_core::Method::Ddp;
+    }
+    if let Some(v) = env("CON_HESS") {
+        s.constraint_hessian = v != 0.0;
+    }
+    if let Some(v) = env("COST_TOL") {
+        s.tolerances.cost = v;
+    }
+    if let Some(v) = env("GRAD_TOL") {
+        s.tolerances.gradient = v;
     }
     if let Some(v) = env("AL_SWITCH") {
         s.al_switch_violation = v;

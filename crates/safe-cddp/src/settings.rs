@@ -28,8 +28,11 @@ pub enum WarmUp {
     /// A cold start is solved twice from the same initial guess, once with each of the two
     /// warm-ups above, and the better solution is kept (feasible first, then lower cost): the
     /// two homotopies often end in different local optima around the obstacles, and their best
-    /// is far more often the best optimum IPOPT or FATROP find (`bench/peers/family.py`). Warm
-    /// starts and solves with a [`crate::Tightening`] use [`WarmUp::Barrier`]'s rule.
+    /// is far more often the best optimum IPOPT or FATROP find (`bench/peers/family.py`). Where
+    /// the two end apart ([`Settings::portfolio_apart`]), a third start from a stronger barrier
+    /// ([`Settings::portfolio_third_mu`]) and a restart from the kept solution
+    /// ([`Settings::portfolio_polish`]) follow. Warm starts and solves with a
+    /// [`crate::Tightening`] use [`WarmUp::Barrier`]'s rule.
     Portfolio,
 }
 
@@ -101,26 +104,34 @@ pub struct Settings {
     pub barrier_relaxation: f64,
     /// Most accepted iterations per barrier subproblem.
     pub barrier_inner_iterations: usize,
-    /// [`WarmUp::Portfolio`]: the initial barrier parameter of an optional third start, a
-    /// barrier homotopy like the second's from this `mu` (falling by `barrier_mu_factor` to
-    /// `barrier_mu_final`, or a single subproblem when it is below `barrier_mu_final`). A
-    /// stronger barrier keeps the trajectory further from the obstacles while it chooses its way
-    /// around them and often ends in another optimum. `None` (the default): two starts. On the
-    /// seed-1 family replay `Some(3e-2)` matches the peers' best on 197 of 210 problems instead
-    /// of 181 (seed 2, not tuned on: 191 instead of 185) for 1.6-1.7x the iterations
-    /// (`bench/peers/README.md`, "A third start").
+    /// [`WarmUp::Portfolio`]: the initial barrier parameter of a third start, a barrier
+    /// homotopy like the second's from this `mu` (falling by `barrier_mu_factor` to
+    /// `barrier_mu_final`, or a single subproblem when it is below `barrier_mu_final`), run
+    /// where the first two starts end apart ([`Settings::portfolio_apart`]). A stronger barrier
+    /// keeps the trajectory further from the obstacles while it chooses its way around them and
+    /// often ends in another optimum. `None`: no third start. With the default `Some(3e-2)` and
+    /// the polish, the family replays of six seeds match the peers' best on 1147 of 1260
+    /// problems instead of 1084 with two starts, for 1.45x the iterations
+    /// (`bench/peers/README.md`, "Problem family").
     pub portfolio_third_mu: Option<f64>,
+    /// [`WarmUp::Portfolio`]: the third start ([`Settings::portfolio_third_mu`]) and the polish
+    /// ([`Settings::portfolio_polish`]) run only when the first two starts ended apart: their
+    /// costs differ by more than this, relative to the larger (but by less than a factor of 10:
+    /// a start that ends further above the other stalled), or either is infeasible. Two starts
+    /// that end apart show a problem with several optima within reach of a cold start, where a
+    /// third way of choosing among them pays; where they agree (P3, within 1e-10), the extra
+    /// starts mostly land on the same optimum. `0`: always.
+    pub portfolio_apart: f64,
     /// [`WarmUp::Portfolio`]: when the best start's solution is the augmented Lagrangian's own
     /// (its hand-over to the KKT/QP iterations failed, and it ran to its own convergence), a
     /// last start from that solution, the KKT/QP iterations with cold multipliers and working
     /// sets, kept when better (its iterations and QP counts then add to the kept start's; the
     /// report's log holds the polish's own iterations). Restarted with
     /// cold multipliers, the augmented Lagrangian leaves the contact set it had settled on and
-    /// often finds a neighbouring one of lower cost. `false` (the default): no polish. On the
-    /// family replays (`bench/peers/README.md`, "The polish") it matches the peers' best on 192
-    /// of 210 problems instead of 182 (seed 1) and 186 (seed 2), for 1.22x the iterations; it
-    /// also runs on P2 and P3 (whose kept solutions end in the warm-up) without lowering their
-    /// cost.
+    /// often finds a neighbouring one of lower cost. Like the third start, it runs only where
+    /// the first two starts end apart ([`Settings::portfolio_apart`]); `false`: no polish. Run
+    /// always (`portfolio_apart = 0`), it also runs on P2 and P3 (whose kept solutions end in
+    /// the warm-up) without lowering their cost (`bench/peers/README.md`, "The polish").
     pub portfolio_polish: bool,
     /// [`WarmUp::Portfolio`]: threads of a cold solve, 1 or 2. With 2 the first two starts (the
     /// augmented Lagrangian's and the barrier's) run at once, the second on a sibling solver on
@@ -184,8 +195,9 @@ impl Default for Settings {
             barrier_mu_final: 1e-3,
             barrier_relaxation: 1e-6,
             barrier_inner_iterations: 10,
-            portfolio_third_mu: None,
-            portfolio_polish: false,
+            portfolio_third_mu: Some(3e-2),
+            portfolio_apart: 1e-3,
+            portfolio_polish: true,
             portfolio_threads: 1,
             al_rho_init: 10.0,
             al_rho_factor: 10.0,
@@ -308,6 +320,12 @@ impl Settings {
             finite_pos(self.barrier_mu_final) && self.barrier_mu_final <= self.barrier_mu_init,
             self.barrier_mu_final,
             "finite, > 0 and <= barrier_mu_init",
+        )?;
+        check(
+            "portfolio_apart",
+            finite_nonneg(self.portfolio_apart),
+            self.portfolio_apart,
+            "finite and >= 0",
         )?;
         if let Some(mu) = self.portfolio_third_mu {
             check("portfolio_third_mu", finite_pos(mu), mu, "finite and > 0")?;

@@ -1,7 +1,8 @@
-//! The optional starts of `WarmUp::Portfolio`: the third (`Settings::portfolio_third_mu`), a
+//! The extra starts of `WarmUp::Portfolio`: the third (`Settings::portfolio_third_mu`), a
 //! barrier homotopy from a stronger barrier, and the polish (`Settings::portfolio_polish`), the
 //! KKT/QP iterations with cold multipliers from an augmented-Lagrangian solution; each kept only
-//! when it ends in a better optimum.
+//! when it ends in a better optimum, and both run only where the first two starts ended apart
+//! (`Settings::portfolio_apart`).
 
 use safe_cddp::benchmark::BenchmarkProblem;
 use safe_cddp::{SafeCddpSolver, Settings, Status, WarmUp};
@@ -10,6 +11,15 @@ use safe_cddp::{SafeCddpSolver, Settings, Status, WarmUp};
 /// starts end 66 % above IPOPT's optimum (0.44592); the third start reaches it.
 const POINT_S1_I24: &str = r#"{"name": "point-s1-i24-a0", "model": "point", "dt": 0.0833, "N": 91, "x0": [0.0, 0.0, 0.0, 0.0], "cost": {"kind": "quad_goal", "x_goal": [-0.9764, 3.511, 0.0, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[-0.2712, 0.4564, 0.4267], [-0.494, 3.0689, 0.2955], [-0.9667, 2.7136, 0.2993], [-0.5643, 1.8916, 0.4738], [-0.0353, 0.6335, 0.2534]]}"#;
 const IPOPT_COST: f64 = 0.44591998255635834;
+
+/// The portfolio's first two starts only.
+fn two_starts() -> Settings {
+    Settings {
+        portfolio_third_mu: None,
+        portfolio_polish: false,
+        ..Settings::default()
+    }
+}
 
 fn solve(settings: Settings) -> (f64, f64, usize, usize, Vec<f64>) {
     let bp = BenchmarkProblem::from_json(POINT_S1_I24).unwrap();
@@ -24,10 +34,10 @@ fn solve(settings: Settings) -> (f64, f64, usize, usize, Vec<f64>) {
 
 #[test]
 fn a_third_start_finds_the_better_optimum() {
-    let two = solve(Settings::default());
+    let two = solve(two_starts());
     let three = solve(Settings {
         portfolio_third_mu: Some(3e-2),
-        ..Settings::default()
+        ..two_starts()
     });
     assert!(two.1 <= 1e-6 && three.1 <= 1e-6);
     assert!(two.0 > IPOPT_COST * 1.1, "two starts: {}", two.0);
@@ -38,18 +48,22 @@ fn a_third_start_finds_the_better_optimum() {
     // Deterministic: the same solve again gives the same controls, bit for bit.
     let again = solve(Settings {
         portfolio_third_mu: Some(3e-2),
-        ..Settings::default()
+        ..two_starts()
     });
     assert_eq!(three.4, again.4);
+    // The default runs it too (the first two starts end apart here) and keeps its optimum.
+    let default = solve(Settings::default());
+    assert!(default.0 <= IPOPT_COST * (1.0 + 1e-6), "default: {}", default.0);
 }
 
 #[test]
 fn the_third_start_equal_to_the_second_changes_nothing() {
     // A third start with the second's barrier ties with it; the solution is the two-start one.
-    let two = solve(Settings::default());
-    let s = Settings::default();
+    let two = solve(two_starts());
+    let s = two_starts();
     let three = solve(Settings {
         portfolio_third_mu: Some(s.barrier_mu_init),
+        portfolio_apart: 0.0,
         ..s
     });
     assert_eq!(two.4, three.4);
@@ -61,10 +75,11 @@ fn only_the_portfolio_reads_it() {
     // Barrier alone ignores portfolio_third_mu.
     let b = Settings {
         warm_up: WarmUp::Barrier,
-        ..Settings::default()
+        ..two_starts()
     };
     let with = solve(Settings {
         portfolio_third_mu: Some(3e-2),
+        portfolio_apart: 0.0,
         ..b
     });
     assert_eq!(solve(b).4, with.4);
@@ -80,6 +95,50 @@ fn bad_third_mu_is_rejected_by_name() {
         let err = s.validate().unwrap_err().to_string();
         assert!(err.contains("portfolio_third_mu"), "{err}");
     }
+    for apart in [-1e-3, f64::NAN, f64::INFINITY] {
+        let s = Settings {
+            portfolio_apart: apart,
+            ..Settings::default()
+        };
+        let err = s.validate().unwrap_err().to_string();
+        assert!(err.contains("portfolio_apart"), "{err}");
+    }
+}
+
+#[test]
+fn the_extra_starts_run_only_where_the_first_two_end_apart() {
+    // On P3 the augmented-Lagrangian and barrier starts end within 1e-10 of each other, on P2
+    // the barrier start stalls at 900x the other's cost: neither is apart, and the default
+    // portfolio is the two-start one there, bit for bit. With `portfolio_apart = 0` the third
+    // start and the polish run and cannot end worse.
+    for file in ["p3_point4.json", "p2_car4.json"] {
+        let json = std::fs::read_to_string(format!("../../bench/problems/{file}")).unwrap();
+        let two = solve_json(&json, two_starts());
+        let default = solve_json(&json, Settings::default());
+        let always = solve_json(
+            &json,
+            Settings {
+                portfolio_apart: 0.0,
+                ..Settings::default()
+            },
+        );
+        assert_eq!(default.cost.to_bits(), two.cost.to_bits(), "{file}");
+        assert_eq!(default.iterations, two.iterations, "{file}");
+        assert_eq!(default.discarded_iterations, two.discarded_iterations, "{file}");
+        assert!(
+            always.iterations + always.discarded_iterations > two.iterations + two.discarded_iterations,
+            "{file}: the extra starts did not run"
+        );
+        assert!(always.max_violation <= 1e-6 && always.cost <= two.cost, "{file}");
+    }
+    // On point-s1-i24 they end apart (the barrier start's optimum is 66 % above IPOPT's): the
+    // third start runs and finds IPOPT's optimum (`a_third_start_finds_the_better_optimum`);
+    // with a gate wider than their gap it does not.
+    let wide = solve(Settings {
+        portfolio_apart: 10.0,
+        ..Settings::default()
+    });
+    assert_eq!(wide.4, solve(two_starts()).4);
 }
 
 /// Problem 10 of the car family, seed 1: the portfolio keeps the augmented Lagrangian's own
@@ -96,18 +155,13 @@ fn solve_json(json: &str, settings: Settings) -> safe_cddp::Report {
 
 #[test]
 fn the_polish_reaches_the_optimum_the_augmented_lagrangian_stopped_short_of() {
-    let plain = solve_json(
-        CAR_S1_I10,
-        Settings {
-            portfolio_polish: false,
-            ..Settings::default()
-        },
-    );
+    let plain = solve_json(CAR_S1_I10, two_starts());
     let polished = solve_json(
         CAR_S1_I10,
         Settings {
             portfolio_polish: true,
-            ..Settings::default()
+            portfolio_apart: 0.0,
+            ..two_starts()
         },
     );
     assert_eq!(polished.status, Status::Converged);
@@ -141,7 +195,8 @@ fn the_polish_never_ends_worse() {
                 &json,
                 Settings {
                     portfolio_polish,
-                    ..Settings::default()
+                    portfolio_apart: 0.0,
+                    ..two_starts()
                 },
             )
         };
@@ -190,14 +245,15 @@ fn two_threads_are_the_one_thread_computation() {
     let p2 = std::fs::read_to_string("../../bench/problems/p2_car4.json").unwrap();
     let p3 = std::fs::read_to_string("../../bench/problems/p3_point4.json").unwrap();
     let variants = [
+        two_starts(),
+        Settings {
+            portfolio_polish: true,
+            portfolio_apart: 0.0,
+            ..two_starts()
+        },
         Settings::default(),
         Settings {
-            portfolio_polish: true,
-            ..Settings::default()
-        },
-        Settings {
-            portfolio_third_mu: Some(3e-2),
-            portfolio_polish: true,
+            portfolio_apart: 0.0,
             ..Settings::default()
         },
     ];

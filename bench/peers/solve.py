@@ -90,9 +90,21 @@ def costs_of(p: BenchProblem) -> tuple[ddpkit.Cost, ddpkit.Cost]:
 
 
 def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
-    """`--polish` and `--portfolio-threads`: the `SafeCddpSolver` options the peer benchmarks
-    expose (read back with `safe_options_of`)."""
-    ap.add_argument("--polish", action="store_true", help="ddpkit with SafeCddpSolver(portfolio_polish=True)")
+    """`--two-starts`, `--apart` and `--portfolio-threads`: the `SafeCddpSolver` options the peer
+    benchmarks expose (read back with `safe_options_of`)."""
+    ap.add_argument(
+        "--two-starts",
+        action="store_true",
+        help="ddpkit with SafeCddpSolver(portfolio_third_mu=None, portfolio_polish=False): the portfolio's "
+        "augmented-Lagrangian and barrier starts only (the default before 2026-12-05)",
+    )
+    ap.add_argument(
+        "--apart",
+        type=float,
+        default=None,
+        help="ddpkit with SafeCddpSolver(portfolio_apart=...): the third start and the polish run where the first "
+        "two starts' costs are further apart than this, relative (0: always; default: the library's)",
+    )
     ap.add_argument(
         "--portfolio-threads",
         type=int,
@@ -104,8 +116,15 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
 
 
 def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
-    """The `SafeCddpSolver` keywords of `add_safe_arguments`'s options."""
-    return {"portfolio_polish": args.polish, "portfolio_threads": args.portfolio_threads}
+    """The `SafeCddpSolver` keywords of `add_safe_arguments`'s options (only those given: the
+    others keep the library's defaults)."""
+    options: dict[str, Any] = {"portfolio_threads": args.portfolio_threads}
+    if args.two_starts:
+        options.update(portfolio_third_mu=None, portfolio_polish=False)
+    if args.apart is not None:
+        options["portfolio_apart"] = args.apart
+    return options
+
 
 class DdpkitSolver:
     """Builds the ddpkit problem(s) once and solves from a cold start on each call."""

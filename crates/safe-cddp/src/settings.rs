@@ -111,7 +111,7 @@ pub struct Settings {
     /// keeps the trajectory further from the obstacles while it chooses its way around them and
     /// often ends in another optimum. `None`: no third start. With the default `Some(3e-2)` and
     /// the polish, the family replays of six seeds match the peers' best on 1147 of 1260
-    /// problems instead of 1084 with two starts, for 1.45x the iterations
+    /// problems instead of 1084 with two starts, for 1.42x the iterations
     /// (`bench/peers/README.md`, "Problem family").
     pub portfolio_third_mu: Option<f64>,
     /// [`WarmUp::Portfolio`]: the third start ([`Settings::portfolio_third_mu`]) and the polish

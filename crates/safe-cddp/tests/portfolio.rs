@@ -131,7 +131,7 @@ fn the_extra_starts_run_only_where_the_first_two_end_apart() {
         );
         assert!(always.max_violation <= 1e-6 && always.cost <= two.cost, "{file}");
     }
-    // On point-s1-i24 they end apart (the barrier start's optimum is 66 % above IPOPT's): the
+    // On point-s1-i24 they end apart (the better of the two 66 % above IPOPT's optimum): the
     // third start runs and finds IPOPT's optimum (`a_third_start_finds_the_better_optimum`);
     // with a gate wider than their gap it does not.
     let wide = solve(Settings {

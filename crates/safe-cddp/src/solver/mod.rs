@@ -665,11 +665,12 @@ where
     /// After the portfolio's first two starts (the kept one's report in `portfolio.report`, the
     /// other's in `report`): whether they ended apart ([`Settings::portfolio_apart`]; always when
     /// that is 0): either infeasible, or feasible at costs more than `portfolio_apart` apart
-    /// (relative to the larger) but within a factor of [`FAILED_START`]. A start that ends further above the
-    /// other did not find a neighbouring optimum but stalled far from any (P2's barrier start
-    /// stops at 900x the cost of the augmented Lagrangian's, after a rejected KKT/QP step throws
-    /// its re-entered warm-up away from the obstacles): the family replays match as often
-    /// without the extra starts there (770 / 840 against 771) for 3 % fewer iterations.
+    /// (relative to the larger) but within a factor of [`FAILED_START`]. A start that ends
+    /// further above the other did not find a neighbouring optimum but stalled far from any
+    /// (P2's barrier start stops at 900x the cost of the augmented Lagrangian's, after a rejected
+    /// KKT/QP step throws its re-entered warm-up away from the obstacles): the replays of seeds
+    /// 1-4 match as often without the extra starts there (770 / 840 against 771) for 4 % fewer
+    /// iterations.
     fn starts_apart(&self, tol: f64) -> bool {
         let (a, b) = (&self.portfolio.report, &self.report);
         let gap = self.settings.portfolio_apart;

@@ -86,6 +86,37 @@ where
         }
     }
 
+    /// [`Constraint::jacobians`] at the times `t0 + i` of consecutive states `xs`, with `us` as
+    /// in [`Constraint::evaluate_along`]: the rows of state `i` go to `g`, `g_x`, `g_u` at
+    /// `i stride .. i stride + dim()`. The solver linearises every row along the trajectory with
+    /// it, one call per constraint. The default calls [`Constraint::jacobians`] per state; an
+    /// override must give the same values bit for bit.
+    #[allow(clippy::too_many_arguments)]
+    fn jacobians_along(
+        &self,
+        t0: usize,
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        g: &mut [f64],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
+        stride: usize,
+    ) {
+        let d = self.dim();
+        for (i, x) in xs.iter().enumerate() {
+            let u = if us.len() == 1 { &us[0] } else { &us[i] };
+            let rows = i * stride..i * stride + d;
+            self.jacobians(
+                t0 + i,
+                x,
+                u,
+                &mut g[rows.clone()],
+                &mut g_x[rows.clone()],
+                &mut g_u[rows],
+            );
+        }
+    }
+
     /// Adds `sum_i w_i * d^2 g_i / dx^2` to `h_xx` (the constraint curvature of the Lagrangian).
     /// Optional: the default adds nothing, and the solver then uses a Gauss-Newton model of the
     /// constraints.
@@ -139,6 +170,18 @@ where
     }
     fn evaluate_along(&self, t0: usize, xs: &[VectorN<NX>], us: &[VectorN<NU>], g: &mut [f64], stride: usize) {
         (**self).evaluate_along(t0, xs, us, g, stride)
+    }
+    fn jacobians_along(
+        &self,
+        t0: usize,
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        g: &mut [f64],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
+        stride: usize,
+    ) {
+        (**self).jacobians_along(t0, xs, us, g, g_x, g_u, stride)
     }
     fn add_hessian(&self, t: usize, x: &VectorN<NX>, u: &VectorN<NU>, w: &[f64], h_xx: &mut MatrixN<NX, NX>) {
         (**self).add_hessian(t, x, u, w, h_xx)

@@ -190,6 +190,26 @@ where
         g_x[0][self.indices[1]] = gp[1];
         g_u[0].fill(0.0);
     }
+    fn jacobians_along(
+        &self,
+        _t0: usize,
+        xs: &[VectorN<NX>],
+        _us: &[VectorN<NU>],
+        g: &mut [f64],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
+        stride: usize,
+    ) {
+        for (i, x) in xs.iter().enumerate() {
+            let (v, gp, _) = self.terms(x);
+            let r = i * stride;
+            g[r] = v;
+            g_x[r].fill(0.0);
+            g_x[r][self.indices[0]] = gp[0];
+            g_x[r][self.indices[1]] = gp[1];
+            g_u[r].fill(0.0);
+        }
+    }
     fn add_hessian(&self, _t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, w: &[f64], h_xx: &mut MatrixN<NX, NX>) {
         let (_, _, h) = self.terms(x);
         add_planar_block(h_xx, self.indices, &(w[0] * h));

@@ -140,6 +140,60 @@ fn evaluate_along_equals_evaluate_bit_for_bit() {
 }
 
 #[test]
+fn jacobians_along_equals_jacobians_bit_for_bit() {
+    // The linearisation takes every row's Jacobians with `jacobians_along` (strided, one call per
+    // constraint); they must be those of `jacobians` exactly, or the iterates would change. The
+    // entries between the strided rows are left alone.
+    let xs: Vec<Vector<4>> = (0..5)
+        .map(|i| {
+            let s = i as f64;
+            Vector::<4>::new(0.3 * s - 0.2, 0.5 - 0.2 * s, 0.1 * s, 0.7 - 0.3 * s)
+        })
+        .collect();
+    let us: Vec<Vector<2>> = (0..5).map(|i| Vector::<2>::new(0.1 * i as f64, -0.05)).collect();
+    let stride = 7;
+    for (name, c, _) in all_constraints() {
+        let d = c.dim();
+        for us in [&us[..], &us[..1]] {
+            let len = stride * xs.len();
+            let (mut g, mut gx, mut gu) = (
+                vec![f64::NAN; len],
+                vec![Vector::<4>::repeat(f64::NAN); len],
+                vec![Vector::<2>::repeat(f64::NAN); len],
+            );
+            c.jacobians_along(3, &xs, us, &mut g, &mut gx, &mut gu, stride);
+            let (mut g1, mut gx1, mut gu1) = (
+                vec![0.0; d],
+                vec![Vector::<4>::zeros(); d],
+                vec![Vector::<2>::zeros(); d],
+            );
+            for (i, x) in xs.iter().enumerate() {
+                let u = if us.len() == 1 { &us[0] } else { &us[i] };
+                c.jacobians(3 + i, x, u, &mut g1, &mut gx1, &mut gu1);
+                for r in 0..d {
+                    let at = i * stride + r;
+                    assert_eq!(g[at].to_bits(), g1[r].to_bits(), "{name}, state {i}, row {r}");
+                    let bits = |v: &[f64]| v.iter().map(|e| e.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(
+                        bits(gx[at].as_slice()),
+                        bits(gx1[r].as_slice()),
+                        "{name} g_x, state {i}, row {r}"
+                    );
+                    assert_eq!(
+                        bits(gu[at].as_slice()),
+                        bits(gu1[r].as_slice()),
+                        "{name} g_u, state {i}, row {r}"
+                    );
+                }
+                for r in d..stride {
+                    assert!(g[i * stride + r].is_nan(), "{name}: row {r} of state {i} was written");
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn polygon_signed_distance_is_exact() {
     // The unit square: outside along an edge, outside at a corner, inside.
     let sq =

@@ -30,6 +30,16 @@ impl Slot {
         let t = if self.mixed { k } else { k + self.degree };
         (t <= n).then_some(t)
     }
+
+    /// How many knots have this constraint's rows: knots `0 .. count` are those whose
+    /// [`Slot::time`] is within the horizon.
+    pub fn knots(&self, n: usize) -> usize {
+        if self.mixed {
+            n
+        } else {
+            (n + 1).saturating_sub(self.degree).min(n)
+        }
+    }
 }
 
 /// The rows of every knot and their scratch buffers (sized at construction).
@@ -195,39 +205,43 @@ where
             if all {
                 self.present[k * m..k * m + self.bound_offset].fill(true);
             }
-            for (j, slot) in self.slots.iter().enumerate() {
+            for slot in &self.slots {
                 let base = k * m + slot.offset;
-                let dim = slot.dim;
-                let Some(t) = slot.time(k, n) else {
-                    self.present[base..base + dim].iter_mut().for_each(|p| *p = false);
-                    self.lambda[base..base + dim].iter_mut().for_each(|p| *p = 0.0);
-                    continue;
-                };
-                let (x, u) = if slot.mixed {
-                    (&xs[k], &us[k])
-                } else {
-                    (&xs[t], &self.zero_u)
-                };
-                let rows = base..base + dim;
-                constraints[j].jacobians(
-                    t,
-                    x,
-                    u,
-                    &mut self.g[rows.clone()],
-                    &mut self.gx[rows.clone()],
-                    &mut self.gu[rows.clone()],
-                );
-                if !all {
-                    self.present[rows.clone()].fill(true);
+                let rows = base..base + slot.dim;
+                if slot.time(k, n).is_none() {
+                    self.present[rows.clone()].fill(false);
+                    self.lambda[rows].fill(0.0);
+                } else if !all {
+                    self.present[rows].fill(true);
                 }
-                if slot.mixed {
-                    for i in rows {
+            }
+            self.linearize_bounds(k, bounds, &us[k]);
+        }
+        // The Jacobians of each constraint along the knots where its rows are present, in one
+        // call ([`Constraint::jacobians_along`]), as the line search evaluates them.
+        for (j, slot) in self.slots.iter().enumerate() {
+            let count = slot.knots(n);
+            if slot.dim == 0 || count == 0 {
+                continue;
+            }
+            let (g, gx, gu) = (
+                &mut self.g[slot.offset..],
+                &mut self.gx[slot.offset..],
+                &mut self.gu[slot.offset..],
+            );
+            if slot.mixed {
+                constraints[j].jacobians_along(0, &xs[..count], &us[..count], g, gx, gu, m);
+                for k in 0..count {
+                    for i in k * m + slot.offset..k * m + slot.offset + slot.dim {
                         self.c[i].copy_from(&self.gu[i]);
                         self.d[i].copy_from(&self.gx[i]);
                     }
                 }
+            } else {
+                let t0 = slot.degree;
+                let zero_u = std::slice::from_ref(&self.zero_u);
+                constraints[j].jacobians_along(t0, &xs[t0..t0 + count], zero_u, g, gx, gu, m);
             }
-            self.linearize_bounds(k, bounds, &us[k]);
         }
     }
 
@@ -321,12 +335,7 @@ where
     ) {
         let m = self.m;
         for (j, slot) in self.slots.iter().enumerate() {
-            // Knots `0 .. count` have their rows' time `t <= n` (see `Slot::time`).
-            let count = if slot.mixed {
-                n
-            } else {
-                (n + 1).saturating_sub(slot.degree).min(n)
-            };
+            let count = slot.knots(n);
             if slot.dim == 0 || count == 0 {
                 continue;
             }

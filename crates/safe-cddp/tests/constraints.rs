@@ -106,18 +106,24 @@ fn constraint_derivatives_match_finite_differences() {
     }
 }
 
-#[test]
-fn evaluate_along_equals_evaluate_bit_for_bit() {
-    // The line search evaluates the rows with `evaluate_along` (strided, one call per
-    // constraint); its values must be those of `evaluate` exactly, or the iterates would change.
-    let xs: Vec<Vector<4>> = (0..5)
+/// Five states and controls of the `_along` tests, and a row stride above every constraint's
+/// `dim()`.
+fn along_trajectory() -> (Vec<Vector<4>>, Vec<Vector<2>>, usize) {
+    let xs = (0..5)
         .map(|i| {
             let s = i as f64;
             Vector::<4>::new(0.3 * s - 0.2, 0.5 - 0.2 * s, 0.1 * s, 0.7 - 0.3 * s)
         })
         .collect();
-    let us: Vec<Vector<2>> = (0..5).map(|i| Vector::<2>::new(0.1 * i as f64, -0.05)).collect();
-    let stride = 7;
+    let us = (0..5).map(|i| Vector::<2>::new(0.1 * i as f64, -0.05)).collect();
+    (xs, us, 7)
+}
+
+#[test]
+fn evaluate_along_equals_evaluate_bit_for_bit() {
+    // The line search evaluates the rows with `evaluate_along` (strided, one call per
+    // constraint); its values must be those of `evaluate` exactly, or the iterates would change.
+    let (xs, us, stride) = along_trajectory();
     for (name, c, _) in all_constraints() {
         let d = c.dim();
         for us in [&us[..], &us[..1]] {
@@ -144,14 +150,7 @@ fn jacobians_along_equals_jacobians_bit_for_bit() {
     // The linearisation takes every row's Jacobians with `jacobians_along` (strided, one call per
     // constraint); they must be those of `jacobians` exactly, or the iterates would change. The
     // entries between the strided rows are left alone.
-    let xs: Vec<Vector<4>> = (0..5)
-        .map(|i| {
-            let s = i as f64;
-            Vector::<4>::new(0.3 * s - 0.2, 0.5 - 0.2 * s, 0.1 * s, 0.7 - 0.3 * s)
-        })
-        .collect();
-    let us: Vec<Vector<2>> = (0..5).map(|i| Vector::<2>::new(0.1 * i as f64, -0.05)).collect();
-    let stride = 7;
+    let (xs, us, stride) = along_trajectory();
     for (name, c, _) in all_constraints() {
         let d = c.dim();
         for us in [&us[..], &us[..1]] {

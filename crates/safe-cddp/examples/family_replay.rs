@@ -13,7 +13,7 @@
 //! (`Settings::portfolio_apart`), `THREADS=2` its concurrent starts
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
-//! the augmented Lagrangian; `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
+//! the augmented Lagrangian; `FUNNEL` `barrier_funnel` (`inf`: none); `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
 //! tolerances; `METHOD=ddp` full DDP; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print
 //! per-solve details.
 use std::time::Instant;
@@ -92,6 +92,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("GRAD_TOL") {
         s.tolerances.gradient = v;
+    }
+    if let Some(v) = env("FUNNEL") {
+        s.barrier_funnel = v;
     }
     if let Some(v) = env("AL_SWITCH") {
         s.al_switch_violation = v;

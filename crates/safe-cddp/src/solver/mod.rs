@@ -872,6 +872,7 @@ where
         self.warm.from_cold = self.warm.cold;
         self.warm.rho = self.warm.rho.max(s.al_rho_init);
         self.warm.prev_violation = f64::INFINITY;
+        self.warm.funnel = f64::INFINITY;
         self.warm.inner = 0;
         self.warm.kkt_failed = false;
         self.warm.handed_over = false;
@@ -1037,7 +1038,11 @@ where
                     let expected = self.core.expected.decrease(alpha);
                     let actual = self.it.merit - merit;
                     let small = actual.abs() <= s.tolerances.cost * (1.0 + self.core.cost.abs());
+                    // After a barrier hand-over the augmented Lagrangian keeps to the side of the
+                    // obstacles the barrier chose (`Settings::barrier_funnel`).
+                    let within = !self.warm.active || trial.max <= self.warm.funnel.max(self.it.violation_max);
                     let ok = merit.is_finite()
+                        && within
                         && (armijo_accepts(&s.line_search, expected, actual)
                             || (small && trial.max <= self.it.violation_max.max(s.constraint_tolerance)));
                     if ok {

@@ -57,6 +57,9 @@ pub(crate) struct WarmUpState {
     /// No solve has reached the KKT/QP iterations since construction or a reset: the next start
     /// runs the warm-up even from a feasible guess (which may be far from optimal).
     pub cold: bool,
+    /// The largest violation an augmented-Lagrangian trial may reach
+    /// ([`crate::Settings::barrier_funnel`] after a barrier hand-over, else infinite).
+    pub funnel: f64,
 }
 
 impl WarmUpState {
@@ -75,6 +78,7 @@ impl WarmUpState {
             kkt_failed: false,
             handed_over: false,
             cold: true,
+            funnel: f64::INFINITY,
         }
     }
 }
@@ -93,6 +97,7 @@ where
         w.barrier = false;
         w.from_cold = false;
         w.prev_violation = f64::INFINITY;
+        w.funnel = f64::INFINITY;
         w.inner = 0;
         w.rho = w
             .rho
@@ -169,7 +174,7 @@ where
     /// below [`crate::Settings::barrier_mu_final`] the homotopy ends with the multiplier
     /// estimates `B'(-g~)` (`mu / -g~` in the interior) as the first multipliers of the
     /// augmented Lagrangian, which hands over to the KKT/QP iterations once the violation is
-    /// small. (Handing a feasible trajectory straight to the KKT/QP iterations fails: rows at a
+    /// small, its trial steps kept within [`crate::Settings::barrier_funnel`]. (Handing a feasible trajectory straight to the KKT/QP iterations fails: rows at a
     /// slack of `mu / lambda` are outside their active set, and the first QP step runs into them.)
     fn lower_barrier(&mut self) {
         let s = self.settings;
@@ -191,6 +196,7 @@ where
             }
             w.barrier = false;
             w.prev_violation = f64::INFINITY;
+            w.funnel = s.barrier_funnel;
         }
         self.refresh_merit();
         self.it.need_linearize = true;

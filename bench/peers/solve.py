@@ -106,6 +106,14 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "two starts' costs are further apart than this, relative (0: always; default: the library's)",
     )
     ap.add_argument(
+        "--barrier-funnel",
+        type=float,
+        default=None,
+        help="ddpkit with SafeCddpSolver(barrier_funnel=...): after the barrier hands over, the augmented "
+        "Lagrangian's trial steps may not pass this violation where two or more rows are violated at once "
+        "(inf: no limit; default: the library's)",
+    )
+    ap.add_argument(
         "--portfolio-threads",
         type=int,
         default=1,
@@ -123,6 +131,8 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
         options.update(portfolio_third_mu=None, portfolio_polish=False)
     if args.apart is not None:
         options["portfolio_apart"] = args.apart
+    if args.barrier_funnel is not None:
+        options["barrier_funnel"] = args.barrier_funnel
     return options
 
 

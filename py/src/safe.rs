@@ -812,6 +812,10 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("portfolio_threads", s.portfolio_threads)?;
     d.set_item("portfolio_third_mu", s.portfolio_third_mu)?;
     d.set_item("portfolio_apart", s.portfolio_apart)?;
+    d.set_item(
+        "barrier_funnel",
+        s.barrier_funnel.is_finite().then_some(s.barrier_funnel),
+    )?;
     Ok(d)
 }
 
@@ -838,6 +842,7 @@ fn settings_from(
     portfolio_threads: i64,
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
+    barrier_funnel: Option<f64>,
 ) -> CoreResult<Settings> {
     let method = parse_method(method)?;
     let warm_up = [
@@ -882,6 +887,8 @@ fn settings_from(
         portfolio_threads,
         portfolio_third_mu,
         portfolio_apart,
+        // `None`: no limit.
+        barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
         ..Settings::default()
     };
     s.validate()?;
@@ -1091,13 +1098,14 @@ impl SafeCddpSolver {
                         portfolio_polish = Settings::default().portfolio_polish,
                         portfolio_threads = Settings::default().portfolio_threads as i64,
                         portfolio_third_mu = Settings::default().portfolio_third_mu,
-                        portfolio_apart = Settings::default().portfolio_apart))]
+                        portfolio_apart = Settings::default().portfolio_apart,
+                        barrier_funnel = Some(Settings::default().barrier_funnel)))]
     // The defaults as Python sees them; tests compare them and the stub with `default_settings`.
     #[pyo3(
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.03, \
-                             portfolio_apart=0.001)"
+                             portfolio_apart=0.001, barrier_funnel=0.03)"
     )]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -1113,6 +1121,7 @@ impl SafeCddpSolver {
         #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
         portfolio_third_mu: Option<f64>,
         portfolio_apart: f64,
+        barrier_funnel: Option<f64>,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
         let settings = settings_from(
@@ -1125,6 +1134,7 @@ impl SafeCddpSolver {
             portfolio_threads,
             portfolio_third_mu,
             portfolio_apart,
+            barrier_funnel,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1565,6 +1575,7 @@ impl Mpc {
             d.portfolio_threads as i64,
             d.portfolio_third_mu,
             d.portfolio_apart,
+            Some(d.barrier_funnel),
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1865,12 +1876,13 @@ where
                     portfolio_polish = Settings::default().portfolio_polish,
                     portfolio_threads = Settings::default().portfolio_threads as i64,
                     portfolio_third_mu = Settings::default().portfolio_third_mu,
-                    portfolio_apart = Settings::default().portfolio_apart))]
+                    portfolio_apart = Settings::default().portfolio_apart,
+                        barrier_funnel = Some(Settings::default().barrier_funnel)))]
 #[pyo3(
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.03, \
-                             portfolio_apart=0.001)"
+                             portfolio_apart=0.001, barrier_funnel=0.03)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn solve_batch_safe(
@@ -1888,6 +1900,7 @@ fn solve_batch_safe(
     #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
+    barrier_funnel: Option<f64>,
 ) -> PyResult<Vec<SafeSolution>> {
     let settings = settings_from(
         method,
@@ -1899,6 +1912,7 @@ fn solve_batch_safe(
         portfolio_threads,
         portfolio_third_mu,
         portfolio_apart,
+        barrier_funnel,
     )?;
     let batch = crate::batch::problems_of(problems)?;
     let threads = crate::batch::threads_of(threads)?;

@@ -338,3 +338,35 @@ def test_bad_initial_guess_and_horizon() -> None:
         solver.set_horizon(0)
     with pytest.raises(ddpkit.InvalidInputError):
         solver.set_horizon(101)
+
+
+def test_the_barrier_funnel_keeps_the_way_around_a_wall_of_obstacles() -> None:
+    import pickle
+
+    # Problem 17 of the point family, seed 2 (bench/results/family_s2_210.json): overlapping
+    # obstacles make a wall between the start and the goal; IPOPT's optimum goes round it.
+    problem = ddpkit.Problem(
+        x0=np.zeros(4),
+        dynamics=ddpkit.DoubleIntegrator2D(dt=0.0873),
+        running_cost=ddpkit.QuadraticCost(Q=np.zeros(4), R=[0.1, 0.1]),
+        terminal_cost=ddpkit.QuadraticTerminal(Qf=[100.0, 100.0, 10.0, 10.0], x_ref=[0.8095, -2.3979, 0.0, 0.0]),
+        horizon=107,
+    )
+    wall = [(0.4543, -2.082, 0.2079), (0.8051, -1.4666, 0.2347), (0.3289, -1.4844, 0.3807), (0.17, -1.3864, 0.381)]
+    obstacles = [ddpkit.Circle((ox, oy), r) for ox, oy, r in wall]
+    ipopt = 0.09276029665544235
+    assert ddpkit.default_settings("SafeCddpSolver")["barrier_funnel"] == 0.03
+    # Without the funnel both portfolio starts stop at the wall.
+    solver = ddpkit.SafeCddpSolver(problem, obstacles, barrier_funnel=None)
+    stalled = solver.solve()
+    assert stalled.max_violation <= 1e-6 and stalled.cost > 10 * ipopt
+    default = ddpkit.SafeCddpSolver(problem, obstacles).solve()
+    assert default.max_violation <= 1e-6 and default.cost <= ipopt * (1 + 1e-6)
+    again = pickle.loads(pickle.dumps(solver))
+    assert again == solver and again != ddpkit.SafeCddpSolver(problem, obstacles)
+    np.testing.assert_array_equal(again.solve().us, stalled.us)
+    batch = ddpkit.solve_batch_safe([problem], obstacles, threads=1, barrier_funnel=None)
+    np.testing.assert_array_equal(batch[0].us, stalled.us)
+    for bad in (0.0, -1e-2, float("nan")):
+        with pytest.raises(ValueError, match="barrier_funnel"):
+            ddpkit.SafeCddpSolver(problem, obstacles, barrier_funnel=bad)

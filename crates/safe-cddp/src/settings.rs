@@ -104,15 +104,22 @@ pub struct Settings {
     pub barrier_relaxation: f64,
     /// Most accepted iterations per barrier subproblem.
     pub barrier_inner_iterations: usize,
-    /// The largest violation (in the constraints' own units, at least the current one) that a
-    /// trial step of the augmented Lagrangian may reach after the barrier homotopy has handed
-    /// it a trajectory from the interior; `f64::INFINITY`: no limit. The barrier chose the way
-    /// around the obstacles; under its first, weak penalty the augmented Lagrangian would
-    /// otherwise cut through a thin obstacle or press into a wall of overlapping ones, where
-    /// the violation stalls (a point-robot problem of the family ended 164x above the peers'
-    /// cost that way). With `3e-2` the family replays of six seeds match the peers' best on
-    /// 1150 of 1260 problems instead of 1147, and miss by more than 5 % on 57 instead of 68,
-    /// for 2 % more iterations (`bench/peers/README.md`, "Problem family").
+    /// After the barrier homotopy has handed the augmented Lagrangian a trajectory from the
+    /// interior, the largest violation (in the constraints' own units, at least the current
+    /// largest) that a trial step may reach at a knot where two or more rows are violated at
+    /// once; `f64::INFINITY`: no limit. The barrier chose the way around the obstacles; under
+    /// its first, weak penalty the augmented Lagrangian may step into them, which it recovers
+    /// from where one row is violated, but inside a wall of overlapping obstacles the rows'
+    /// gradients cancel, the violation stalls, and the solve ends on the wrong side (a
+    /// point-robot problem of the family ended 164x above the peers' cost that way; with the
+    /// funnel it reaches their optimum). The default `3e-2`: on the family replays of six seeds
+    /// 1155 of 1260 problems match the peers' best instead of 1147 and 59 miss by more than 5 %
+    /// instead of 68, with the same iterations; P2, P3, Table I and the planar quadrotor past
+    /// its obstacle (one obstacle each, or none overlapping) solve as without it, bit for bit.
+    /// Counting every knot instead (a violation of `3e-2` anywhere) also helped the family
+    /// (1150, 57) but cost 7 % more time, and it held the quadrotor's augmented Lagrangian back
+    /// (it passes `5e-2` on its way to the optimum) into a neighbouring optimum and 2.6x the
+    /// time (`bench/peers/README.md`, "Problem family").
     pub barrier_funnel: f64,
     /// [`WarmUp::Portfolio`]: the initial barrier parameter of a third start, a barrier
     /// homotopy like the second's from this `mu` (falling by `barrier_mu_factor` to

@@ -134,9 +134,10 @@ fn rows_with_positive_multipliers_stay_active_at_the_hand_over() {
     // The augmented Lagrangian handed over with three contact rows 1e-6 to 6e-6 inside their
     // boundary (beyond the active threshold) but with positive multipliers; the KKT/QP
     // iterations dropped them, their first step ran into the obstacles and was rejected, and
-    // the solve ended at the warm-up's point, 8.3e-6 above the optimum. (That hand-over comes
-    // from the barrier start without its funnel; with the default funnel the portfolio keeps a
-    // neighbouring optimum 8.5e-5 above FATROP's instead.)
+    // the solve ended at the warm-up's point, 8.3e-6 above the optimum. That hand-over comes
+    // from the barrier start without its funnel (`Settings::barrier_funnel`; its obstacles
+    // overlap, and with the funnel the portfolio keeps a neighbouring optimum 8.5e-5 above
+    // FATROP's instead).
     let bp = BenchmarkProblem::from_json(POINT_S1_I65).unwrap();
     let (problem, constraints) = bp.car_or_point().unwrap();
     let settings = Settings {

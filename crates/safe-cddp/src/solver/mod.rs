@@ -1038,9 +1038,9 @@ where
                     let expected = self.core.expected.decrease(alpha);
                     let actual = self.it.merit - merit;
                     let small = actual.abs() <= s.tolerances.cost * (1.0 + self.core.cost.abs());
-                    // After a barrier hand-over the augmented Lagrangian keeps to the side of the
-                    // obstacles the barrier chose (`Settings::barrier_funnel`).
-                    let within = !self.warm.active || trial.max <= self.warm.funnel.max(self.it.violation_max);
+                    // After a barrier hand-over the augmented Lagrangian does not step deep into
+                    // where obstacles overlap (`Settings::barrier_funnel`).
+                    let within = !self.warm.active || trial.overlap <= self.warm.funnel.max(self.it.violation_max);
                     let ok = merit.is_finite()
                         && within
                         && (armijo_accepts(&s.line_search, expected, actual)

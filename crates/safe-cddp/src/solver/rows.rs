@@ -86,6 +86,9 @@ pub(crate) struct Violation {
     pub term: f64,
     /// The largest violation of a tightened row.
     pub max: f64,
+    /// The largest violation of a tightened row at a knot where two or more rows are violated
+    /// at once (inside the overlap of two obstacles: [`crate::Settings::barrier_funnel`]).
+    pub overlap: f64,
 }
 
 /// How the merit weighs violations: the exact penalty of the KKT phase, the
@@ -369,8 +372,9 @@ where
         }
     }
 
-    /// The merit term of the constraint rows (the control bounds hold by projection) and the
-    /// largest violation of a tightened row, along `(xs, us)`.
+    /// The merit term of the constraint rows (the control bounds hold by projection), the
+    /// largest violation of a tightened row, and the largest at a knot with two or more
+    /// violated rows, along `(xs, us)` (rows are visited knot by knot).
     pub fn violation(
         &mut self,
         constraints: &[Arc<dyn Constraint<NX, NU>>],
@@ -380,11 +384,22 @@ where
         merit: Merit<'_>,
     ) -> Violation {
         let (mut term, mut max) = (0.0, 0.0f64);
-        self.for_each_row(constraints, xs, us, n, |_, i, v| {
+        let (mut knot, mut count, mut knot_max, mut overlap) = (usize::MAX, 0u32, 0.0f64, 0.0f64);
+        self.for_each_row(constraints, xs, us, n, |k, i, v| {
             max = max.max(v);
             term += merit.row(i, v).0;
+            if v > 0.0 {
+                if k != knot {
+                    (knot, count, knot_max) = (k, 0, 0.0);
+                }
+                count += 1;
+                knot_max = knot_max.max(v);
+                if count >= 2 {
+                    overlap = overlap.max(knot_max);
+                }
+            }
         });
-        Violation { term, max }
+        Violation { term, max, overlap }
     }
 
     /// The first knot whose rows, evaluated along `(xs, us)`, violate a tightened row by more

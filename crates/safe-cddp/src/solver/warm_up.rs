@@ -57,8 +57,9 @@ pub(crate) struct WarmUpState {
     /// No solve has reached the KKT/QP iterations since construction or a reset: the next start
     /// runs the warm-up even from a feasible guess (which may be far from optimal).
     pub cold: bool,
-    /// The largest violation an augmented-Lagrangian trial may reach
-    /// ([`crate::Settings::barrier_funnel`] after a barrier hand-over, else infinite).
+    /// The largest violation an augmented-Lagrangian trial may reach at a knot with two or more
+    /// violated rows ([`crate::Settings::barrier_funnel`] after a barrier hand-over, else
+    /// infinite).
     pub funnel: f64,
 }
 

@@ -72,12 +72,13 @@ fn hessian_slots(prog: &Program, nx: usize, nu: usize) -> Vec<HessianSlot> {
     out
 }
 
-/// Adds the Hessian entries to the blocks (`hess` from [`Program::second_order`]).
+/// Adds `scale` times the Hessian entries to the blocks (`hess` from [`Program::second_order`],
+/// or a quadratic cost's constant entries; a scale of 1 adds them exactly).
 #[inline]
-fn add_hessian(slots: &[HessianSlot], hess: &[f64], blocks: [&mut [f64]; 3]) {
+fn add_hessian(slots: &[HessianSlot], hess: &[f64], scale: f64, blocks: [&mut [f64]; 3]) {
     let [xx, ux, uu] = blocks;
     for s in slots {
-        let v = hess[s.h as usize];
+        let v = scale * hess[s.h as usize];
         let m = match s.block {
             0 => &mut *xx,
             1 => &mut *ux,
@@ -87,6 +88,15 @@ fn add_hessian(slots: &[HessianSlot], hess: &[f64], blocks: [&mut [f64]; 3]) {
         if s.mirror != u32::MAX {
             m[s.mirror as usize] += v;
         }
+    }
+}
+
+/// Adds `scale` times the gradient `g` (of `(x, u)`) to `lx` and `lu`.
+#[inline]
+fn add_gradient(g: &[f64], scale: f64, lx: &mut [f64], lu: &mut [f64]) {
+    let (gx, gu) = g.split_at(lx.len());
+    for (l, g) in lx.iter_mut().zip(gx).chain(lu.iter_mut().zip(gu)) {
+        *l += scale * g;
     }
 }
 
@@ -126,6 +136,10 @@ struct Compiled {
     jac_x: Vec<(u32, u32)>,
     jac_u: Vec<(u32, u32)>,
     hess: Vec<HessianSlot>,
+    /// A cost whose tape is at most quadratic ([`Tape::is_at_most_quadratic`]): its gradient at
+    /// `z = 0` and its Hessian entries (at [`Program::hessian_pattern`]), the same at every
+    /// point, so that [`Compiled::cost_derivatives`] runs only the forward sweep for the value.
+    quadratic: Option<(Vec<f64>, Vec<f64>)>,
 }
 
 impl Compiled {
@@ -146,7 +160,87 @@ impl Compiled {
             jac_x,
             jac_u,
             hess,
+            quadratic: None,
         }
+    }
+
+    /// A cost's program (value, gradient and Hessian in all `nx + nu` inputs) and, for a tape
+    /// of degree at most 2, its gradient at the origin and its constant Hessian.
+    fn cost(tape: &Tape, nx: usize, nu: usize) -> Self {
+        let prog = Program::with_needs(
+            tape,
+            Needs {
+                hessian_rows: nx + nu,
+                jacobian_values: false,
+                gradient: true,
+                one_sweep: false,
+            },
+        );
+        let hess = hessian_slots(&prog, nx, nu);
+        let quadratic = tape
+            .is_at_most_quadratic()
+            .then(|| {
+                with_ws(|ws| {
+                    prog.second_order(ws, &vec![0.0; nx], &vec![0.0; nu], &[1.0]);
+                    (
+                        ws.bar[..nx + nu].to_vec(),
+                        ws.hess[..prog.hessian_pattern().len()].to_vec(),
+                    )
+                })
+            })
+            // Not finite at the origin (a division by a constant zero): the general path, which
+            // reports it where it is evaluated.
+            .filter(|(g, h)| g.iter().chain(h).all(|v| v.is_finite()));
+        Self {
+            prog,
+            jac_x: Vec::new(),
+            jac_u: Vec::new(),
+            hess,
+            quadratic,
+        }
+    }
+
+    /// Adds `w` times the cost's gradient at `z = (x, u)` to `(lx, lu)` and its Hessian to the
+    /// `(xx, ux, uu)` blocks; returns `w` times its value. At most quadratic: the value from the
+    /// forward sweep, the gradient `g_0 + H z` and the constant `H`.
+    fn cost_derivatives(
+        &self,
+        x: &[f64],
+        u: &[f64],
+        w: f64,
+        lx: &mut [f64],
+        lu: &mut [f64],
+        blocks: [&mut [f64]; 3],
+    ) -> f64 {
+        let nx = x.len();
+        let Some((g0, h)) = &self.quadratic else {
+            return with_ws(|ws| {
+                self.prog.second_order(ws, x, u, &[w]);
+                add_gradient(&ws.bar[..nx + u.len()], 1.0, lx, lu);
+                add_hessian(&self.hess, &ws.hess, 1.0, blocks);
+                w * self.prog.output(ws, 0)
+            });
+        };
+        let mut v = [0.0];
+        with_ws(|ws| self.prog.values(ws, x, u, &mut v));
+        add_gradient(g0, w, lx, lu);
+        let z = |k: usize| if k < nx { x[k] } else { u[k - nx] };
+        let mut grad = |k: usize, d: f64| {
+            if k < nx {
+                lx[k] += d;
+            } else {
+                lu[k - nx] += d;
+            }
+        };
+        for (&(r, c), &hv) in self.prog.hessian_pattern().iter().zip(h) {
+            let (r, c, hv) = (r as usize, c as usize, w * hv);
+            grad(r, hv * z(c));
+            if r != c {
+                grad(c, hv * z(r));
+            }
+        }
+        add_hessian(&self.hess, h, w, blocks);
+        w * v[0]
     }
 
     /// Writes the Jacobian entries from `dot` into `f_x` and `f_u` (column-major).
@@ -291,7 +385,7 @@ where
                 .second_order_kept(ws, data, x.as_slice(), u.as_slice(), lambda.as_slice());
             if kept {
                 let blocks = [h_xx.as_mut_slice(), h_ux.as_mut_slice(), h_uu.as_mut_slice()];
-                add_hessian(&c.hess, &ws.hess, blocks);
+                add_hessian(&c.hess, &ws.hess, 1.0, blocks);
             }
             kept
         });
@@ -321,7 +415,7 @@ where
         with_ws(|ws| {
             c.prog.second_order(ws, x.as_slice(), u.as_slice(), lambda.as_slice());
             let blocks = [h_xx.as_mut_slice(), h_ux.as_mut_slice(), h_uu.as_mut_slice()];
-            add_hessian(&c.hess, &ws.hess, blocks);
+            add_hessian(&c.hess, &ws.hess, 1.0, blocks);
         });
     }
 }
@@ -336,30 +430,17 @@ pub struct TapeCost {
 }
 
 impl TapeCost {
-    /// Checks that `tape` has `nx + nu` inputs and one output, and compiles it.
+    /// Checks that `tape` has `nx + nu` inputs and one output, and compiles it (a tape of
+    /// degree at most 2 keeps its constant Hessian: see [`Tape::is_at_most_quadratic`]).
     pub fn new(tape: Tape, nx: usize, nu: usize) -> Result<Self> {
         check_dims("cost", nx, Some(nu))?;
         check_tape(&tape, "cost", nx + nu, Some(1))?;
-        let prog = Program::with_needs(
-            &tape,
-            Needs {
-                hessian_rows: nx + nu,
-                jacobian_values: false,
-                gradient: true,
-                one_sweep: false,
-            },
-        );
-        let hess = hessian_slots(&prog, nx, nu);
+        let compiled = Arc::new(Compiled::cost(&tape, nx, nu));
         Ok(Self {
             tape: Arc::new(tape),
             nx,
             nu,
-            compiled: Arc::new(Compiled {
-                prog,
-                jac_x: Vec::new(),
-                jac_u: Vec::new(),
-                hess,
-            }),
+            compiled,
         })
     }
     /// The tape.
@@ -386,23 +467,13 @@ where
         v[0]
     }
     fn add_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
-        let nx = self.nx;
-        if x.len() != nx || u.len() != self.nu {
+        if x.len() != self.nx || u.len() != self.nu {
             return f64::NAN;
         }
-        let c = &*self.compiled;
-        with_ws(|ws| {
-            c.prog.second_order(ws, x.as_slice(), u.as_slice(), &[w]);
-            for (l, g) in d.lx.iter_mut().zip(&ws.bar[..nx]) {
-                *l += g;
-            }
-            for (l, g) in d.lu.iter_mut().zip(&ws.bar[nx..nx + self.nu]) {
-                *l += g;
-            }
-            let blocks = [d.lxx.as_mut_slice(), d.lux.as_mut_slice(), d.luu.as_mut_slice()];
-            add_hessian(&c.hess, &ws.hess, blocks);
-            w * c.prog.output(ws, 0)
-        })
+        let blocks = [d.lxx.as_mut_slice(), d.lux.as_mut_slice(), d.luu.as_mut_slice()];
+        let (lx, lu) = (d.lx.as_mut_slice(), d.lu.as_mut_slice());
+        self.compiled
+            .cost_derivatives(x.as_slice(), u.as_slice(), w, lx, lu, blocks)
     }
     fn sizes(&self) -> (Option<usize>, Option<usize>) {
         (Some(self.nx), Some(self.nu))
@@ -418,29 +489,15 @@ pub struct TapeTerminal {
 }
 
 impl TapeTerminal {
-    /// Checks that `tape` has `nx` inputs and one output, and compiles it.
+    /// Checks that `tape` has `nx` inputs and one output, and compiles it (as [`TapeCost::new`]).
     pub fn new(tape: Tape, nx: usize) -> Result<Self> {
         check_dims("terminal_cost", nx, None)?;
         check_tape(&tape, "terminal_cost", nx, Some(1))?;
-        let prog = Program::with_needs(
-            &tape,
-            Needs {
-                hessian_rows: nx,
-                jacobian_values: false,
-                gradient: true,
-                one_sweep: false,
-            },
-        );
-        let hess = hessian_slots(&prog, nx, 0);
+        let compiled = Arc::new(Compiled::cost(&tape, nx, 0));
         Ok(Self {
             tape: Arc::new(tape),
             nx,
-            compiled: Arc::new(Compiled {
-                prog,
-                jac_x: Vec::new(),
-                jac_u: Vec::new(),
-                hess,
-            }),
+            compiled,
         })
     }
     /// The tape.
@@ -470,15 +527,9 @@ where
         if x.len() != self.nx {
             return f64::NAN;
         }
-        let c = &*self.compiled;
-        with_ws(|ws| {
-            c.prog.second_order(ws, x.as_slice(), &[], &[w]);
-            for (l, g) in d.lx.iter_mut().zip(&ws.bar[..self.nx]) {
-                *l += g;
-            }
-            add_hessian(&c.hess, &ws.hess, [d.lxx.as_mut_slice(), &mut [], &mut []]);
-            w * c.prog.output(ws, 0)
-        })
+        let blocks = [d.lxx.as_mut_slice(), &mut [], &mut []];
+        self.compiled
+            .cost_derivatives(x.as_slice(), &[], w, d.lx.as_mut_slice(), &mut [], blocks)
     }
     fn state_size(&self) -> Option<usize> {
         Some(self.nx)
@@ -525,6 +576,7 @@ impl TapeConstraint {
                 jac_x: Vec::new(),
                 jac_u: Vec::new(),
                 hess,
+                quadratic: None,
             }),
         })
     }
@@ -607,7 +659,7 @@ where
         let c = &*self.compiled;
         with_ws(|ws| {
             c.prog.second_order(ws, x.as_slice(), self.control(u.as_slice()), w);
-            add_hessian(&c.hess, &ws.hess, [h_xx.as_mut_slice(), &mut [], &mut []]);
+            add_hessian(&c.hess, &ws.hess, 1.0, [h_xx.as_mut_slice(), &mut [], &mut []]);
         });
     }
     fn check_sizes(&self, nx: usize, nu: usize) -> Result<()> {

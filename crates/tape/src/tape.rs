@@ -135,6 +135,45 @@ impl Tape {
             .any(|n| matches!(n, Node::Input(i) if *i as usize == k))
     }
 
+    /// Whether every output is a polynomial of degree at most 2 in the inputs: built from
+    /// inputs and constants by `-a`, `+`, `-`, `*`, division by a constant and the constant
+    /// powers 0, 1 and 2 (any other operation on a non-constant argument counts as
+    /// non-polynomial). Its gradient is then affine and its Hessian the same at every point.
+    pub fn is_at_most_quadratic(&self) -> bool {
+        /// Degree of a non-polynomial node.
+        const ANY: u32 = u32::MAX;
+        let mut deg: Vec<u32> = Vec::with_capacity(self.nodes.len());
+        for node in &self.nodes {
+            let d = |a: u32| deg[a as usize];
+            let v = match *node {
+                Node::Input(_) => 1,
+                Node::Const(_) => 0,
+                Node::Unary(Unary::Neg, a) => d(a),
+                Node::Binary(Binary::Add | Binary::Sub, a, b) => d(a).max(d(b)),
+                Node::Binary(Binary::Mul, a, b) => d(a).saturating_add(d(b)),
+                Node::Binary(Binary::Div, a, b) if d(b) == 0 => d(a),
+                Node::Powc(a, p) if p == 1.0 || p == 2.0 => d(a).saturating_mul(p as u32),
+                Node::Powc(_, p) if p == 0.0 => 0,
+                Node::Unary(_, a) | Node::Powc(a, _) => {
+                    if d(a) == 0 {
+                        0
+                    } else {
+                        ANY
+                    }
+                }
+                Node::Binary(_, a, b) => {
+                    if d(a).max(d(b)) == 0 {
+                        0
+                    } else {
+                        ANY
+                    }
+                }
+            };
+            deg.push(v);
+        }
+        self.outputs.iter().all(|&o| deg[o as usize] <= 2)
+    }
+
     /// A tape with the same outputs, rebuilt through a [`TapeBuilder`] (sharing, folding and
     /// dead-node removal applied), checking every reference: the way tapes from outside
     /// (files, Python, CasADi) enter. `nodes` must be in evaluation order.

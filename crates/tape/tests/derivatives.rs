@@ -333,6 +333,103 @@ fn cost_derivatives_are_the_closed_form_of_a_quadratic() {
 }
 
 #[test]
+fn the_degree_analysis_finds_the_quadratic_tapes() {
+    assert!(quadratic_tape(&[1.0; 4], &[0.0; 4]).is_at_most_quadratic());
+    // (expression of inputs a, b; whether it is at most quadratic)
+    let cases: [(&str, fn(&mut TapeBuilder, u32, u32) -> u32, bool); 8] = [
+        (
+            "a b / 3 - a",
+            |b, x, y| {
+                let p = b.binary(Binary::Mul, x, y).unwrap();
+                let c = b.constant(3.0).unwrap();
+                let q = b.binary(Binary::Div, p, c).unwrap();
+                b.binary(Binary::Sub, q, x).unwrap()
+            },
+            true,
+        ),
+        (
+            "sin(2) a^2",
+            |b, x, _| {
+                let c = b.constant(2.0).unwrap();
+                let s = b.unary(Unary::Sin, c).unwrap();
+                let p = b.powc(x, 2.0).unwrap();
+                b.binary(Binary::Mul, s, p).unwrap()
+            },
+            true,
+        ),
+        (
+            "-(a^1) + b^0",
+            |b, x, y| {
+                let p = b.powc(x, 1.0).unwrap();
+                let n = b.unary(Unary::Neg, p).unwrap();
+                let o = b.powc(y, 0.0).unwrap();
+                b.binary(Binary::Add, n, o).unwrap()
+            },
+            true,
+        ),
+        (
+            "a^2 b",
+            |b, x, y| {
+                let p = b.powc(x, 2.0).unwrap();
+                b.binary(Binary::Mul, p, y).unwrap()
+            },
+            false,
+        ),
+        ("a / b", |b, x, y| b.binary(Binary::Div, x, y).unwrap(), false),
+        ("sin a", |b, x, _| b.unary(Unary::Sin, x).unwrap(), false),
+        ("a^3", |b, x, _| b.powc(x, 3.0).unwrap(), false),
+        ("max(a, b)", |b, x, y| b.binary(Binary::Max, x, y).unwrap(), false),
+    ];
+    for (name, f, quadratic) in cases {
+        let mut b = TapeBuilder::new(2);
+        let (x, y) = (b.input(0).unwrap(), b.input(1).unwrap());
+        let out = f(&mut b, x, y);
+        assert_eq!(b.finish(&[out]).unwrap().is_at_most_quadratic(), quadratic, "{name}");
+    }
+}
+
+#[test]
+fn a_quadratic_cost_s_constant_hessian_equals_the_second_order_sweep() {
+    // A quadratic cost (its constant Hessian and affine gradient) and a non-quadratic one (the
+    // second-order sweep), against the reference interpreter at several points and weights.
+    let quad = quadratic_tape(&[2.0, 3.0, 5.0, 7.0], &[0.1, -0.2, 0.3, 0.4]);
+    let mut b = TapeBuilder::new(4);
+    let (z0, z3) = (b.input(0).unwrap(), b.input(3).unwrap());
+    let s = b.unary(Unary::Sin, z0).unwrap();
+    let out = b.binary(Binary::Mul, s, z3).unwrap();
+    let sine = b.finish(&[out]).unwrap();
+    assert!(quad.is_at_most_quadratic() && !sine.is_at_most_quadratic());
+    for tape in [quad, sine] {
+        let cost = TapeCost::new(tape.clone(), 3, 1).unwrap();
+        for (z, w) in [
+            ([1.0, 2.0, -1.0, 0.5], 2.0),
+            ([-0.3, 0.0, 4.0, -2.5], 0.7),
+            ([0.0; 4], 1.0),
+        ] {
+            let (x, u) = (Vector::<3>::new(z[0], z[1], z[2]), Vector::<1>::new(z[3]));
+            let mut d = CostDerivatives::<U3, U1>::default();
+            let v = cost.add_derivatives(&x, &u, w, &mut d);
+            let (g, h) = weighted(&tape, &z, &[w]);
+            let close = |a: f64, e: f64| (a - e).abs() <= 1e-12 * (1.0 + e.abs());
+            assert!(close(v, w * values(&tape, &z)[0]));
+            for i in 0..4 {
+                let gi = if i < 3 { d.lx[i] } else { d.lu[0] };
+                assert!(close(gi, g[i]), "gradient {i}: {gi} against {}", g[i]);
+                for j in 0..4 {
+                    let hij = match (i < 3, j < 3) {
+                        (true, true) => d.lxx[(i, j)],
+                        (false, true) => d.lux[(0, j)],
+                        (true, false) => d.lux[(0, i)],
+                        (false, false) => d.luu[(0, 0)],
+                    };
+                    assert!(close(hij, h[i][j]), "Hessian ({i}, {j}): {hij} against {}", h[i][j]);
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn common_subexpressions_share_one_node_and_constants_fold() {
     let mut b = TapeBuilder::new(2);
     let (x, y) = (b.input(0).unwrap(), b.input(1).unwrap());

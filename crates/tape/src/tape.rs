@@ -152,8 +152,7 @@ impl Tape {
                 Node::Binary(Binary::Add | Binary::Sub, a, b) => d(a).max(d(b)),
                 Node::Binary(Binary::Mul, a, b) => d(a).saturating_add(d(b)),
                 Node::Binary(Binary::Div, a, b) if d(b) == 0 => d(a),
-                Node::Powc(a, p) if p == 1.0 || p == 2.0 => d(a).saturating_mul(p as u32),
-                Node::Powc(_, p) if p == 0.0 => 0,
+                Node::Powc(a, p) if p == 0.0 || p == 1.0 || p == 2.0 => d(a).saturating_mul(p as u32),
                 Node::Unary(_, a) | Node::Powc(a, _) => {
                     if d(a) == 0 {
                         0

@@ -336,7 +336,8 @@ fn cost_derivatives_are_the_closed_form_of_a_quadratic() {
 fn the_degree_analysis_finds_the_quadratic_tapes() {
     assert!(quadratic_tape(&[1.0; 4], &[0.0; 4]).is_at_most_quadratic());
     // (expression of inputs a, b; whether it is at most quadratic)
-    let cases: [(&str, fn(&mut TapeBuilder, u32, u32) -> u32, bool); 8] = [
+    type Build = fn(&mut TapeBuilder, u32, u32) -> u32;
+    let cases: [(&str, Build, bool); 8] = [
         (
             "a b / 3 - a",
             |b, x, y| {

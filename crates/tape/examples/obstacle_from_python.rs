@@ -12,19 +12,10 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use ddp_core::dims::Dyn;
-use ddp_core::{ControlBounds, Problem};
-use ddp_tape::TapeModel;
-use nalgebra::DVector;
 use safe_cddp::{SafeCddpSolver, Settings, WarmUp};
 
-const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/quadrotor_obstacle");
-/// Mass and gravity of `traced.py`'s quadrotor: hover thrust per rotor `m g / 2`.
-const HOVER: f64 = 0.5 * 0.5 * 9.81;
-
-fn load(name: &str) -> Result<TapeModel, Box<dyn std::error::Error>> {
-    Ok(TapeModel::load(format!("{DIR}/{name}.json"))?)
-}
+#[path = "../tests/common/quadrotor_obstacle.rs"]
+mod quadrotor_obstacle;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -44,31 +35,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         settings.barrier_funnel = f;
     }
     let repeats: usize = args.get(2).map(|r| r.parse()).transpose()?.unwrap_or(20);
-    let (
-        TapeModel::Dynamics(dynamics),
-        TapeModel::Cost(running),
-        TapeModel::Terminal(terminal),
-        TapeModel::Constraint(obstacle),
-    ) = (
-        load("dynamics")?,
-        load("running")?,
-        load("terminal")?,
-        load("obstacle")?,
-    )
-    else {
-        return Err("the saved models are not dynamics, cost, terminal cost and constraint".into());
-    };
-    let bounds = ControlBounds::<Dyn>::new(DVector::zeros(2), DVector::from_element(2, 4.0 * HOVER))?;
-    let problem = Problem::<Dyn, Dyn>::new(
-        DVector::zeros(6),
-        Arc::new(dynamics),
-        Arc::new(running),
-        Arc::new(terminal),
-        60,
-    )?
-    .with_control_bounds(bounds)?;
+    let (problem, obstacle, guess) = quadrotor_obstacle::quadrotor_obstacle()?;
     let mut solver = SafeCddpSolver::new(&problem, vec![Arc::new(obstacle)], settings)?;
-    let guess = vec![DVector::from_element(2, HOVER); 60];
     let mut times = Vec::with_capacity(repeats);
     for _ in 0..repeats.max(1) {
         solver.reset();

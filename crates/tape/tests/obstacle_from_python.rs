@@ -3,44 +3,19 @@
 //! sizes: the optimum IPOPT and FATROP are compared with in `bench/peers/traced.py`.
 use std::sync::Arc;
 
-use ddp_core::dims::Dyn;
-use ddp_core::{ControlBounds, Method, Problem};
-use ddp_tape::TapeModel;
-use nalgebra::DVector;
+use ddp_core::Method;
 use safe_cddp::{SafeCddpSolver, Settings, Status};
 
-const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/quadrotor_obstacle");
-const HOVER: f64 = 0.5 * 0.5 * 9.81;
+#[path = "common/quadrotor_obstacle.rs"]
+mod quadrotor_obstacle;
+
 /// FATROP's cost on the same discrete problem (`bench/results/traced.json`), the better peer's.
 const FATROP: f64 = 0.120964;
 
-fn load(name: &str) -> TapeModel {
-    TapeModel::load(format!("{DIR}/{name}.json")).unwrap()
-}
-
 fn solve(settings: Settings) -> safe_cddp::Report {
-    let (
-        TapeModel::Dynamics(dynamics),
-        TapeModel::Cost(running),
-        TapeModel::Terminal(terminal),
-        TapeModel::Constraint(obstacle),
-    ) = (load("dynamics"), load("running"), load("terminal"), load("obstacle"))
-    else {
-        panic!("the saved models are not dynamics, cost, terminal cost and constraint");
-    };
-    let bounds = ControlBounds::<Dyn>::new(DVector::zeros(2), DVector::from_element(2, 4.0 * HOVER)).unwrap();
-    let problem = Problem::<Dyn, Dyn>::new(
-        DVector::zeros(6),
-        Arc::new(dynamics),
-        Arc::new(running),
-        Arc::new(terminal),
-        60,
-    )
-    .unwrap()
-    .with_control_bounds(bounds)
-    .unwrap();
+    let (problem, obstacle, guess) = quadrotor_obstacle::quadrotor_obstacle().unwrap();
     let mut solver = SafeCddpSolver::new(&problem, vec![Arc::new(obstacle)], settings).unwrap();
-    solver.set_controls(&vec![DVector::from_element(2, HOVER); 60]).unwrap();
+    solver.set_controls(&guess).unwrap();
     solver.solve(&problem).unwrap().clone()
 }
 

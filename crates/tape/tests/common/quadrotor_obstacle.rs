@@ -13,10 +13,12 @@ const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/quadrotor_obs
 pub const HOVER: f64 = 0.5 * 0.5 * 9.81;
 pub const HORIZON: usize = 60;
 
+/// The problem, its obstacle and the initial controls.
+pub type Parts = (Problem<Dyn, Dyn>, TapeConstraint, Vec<DVector<f64>>);
+
 /// The problem (from rest at the origin, thrusts in `[0, 4 HOVER]`), its obstacle, and the hover
 /// guess `traced.py` starts every solver from.
-pub fn quadrotor_obstacle() -> Result<(Problem<Dyn, Dyn>, TapeConstraint, Vec<DVector<f64>>), Box<dyn std::error::Error>>
-{
+pub fn quadrotor_obstacle() -> Result<Parts, Box<dyn std::error::Error>> {
     let load = |name: &str| TapeModel::load(format!("{DIR}/{name}.json"));
     let (
         TapeModel::Dynamics(dynamics),

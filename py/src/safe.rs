@@ -816,6 +816,8 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
         "barrier_funnel",
         s.barrier_funnel.is_finite().then_some(s.barrier_funnel),
     )?;
+    d.set_item("barrier_mu_init", s.barrier_mu_init)?;
+    d.set_item("barrier_relaxation", s.barrier_relaxation)?;
     Ok(d)
 }
 
@@ -843,6 +845,8 @@ fn settings_from(
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
     barrier_funnel: Option<f64>,
+    barrier_mu_init: f64,
+    barrier_relaxation: f64,
 ) -> CoreResult<Settings> {
     let method = parse_method(method)?;
     let warm_up = [
@@ -889,6 +893,8 @@ fn settings_from(
         portfolio_apart,
         // `None`: no limit.
         barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
+        barrier_mu_init,
+        barrier_relaxation,
         ..Settings::default()
     };
     s.validate()?;
@@ -1099,13 +1105,16 @@ impl SafeCddpSolver {
                         portfolio_threads = Settings::default().portfolio_threads as i64,
                         portfolio_third_mu = Settings::default().portfolio_third_mu,
                         portfolio_apart = Settings::default().portfolio_apart,
-                        barrier_funnel = Some(Settings::default().barrier_funnel)))]
+                        barrier_funnel = Some(Settings::default().barrier_funnel),
+                        barrier_mu_init = Settings::default().barrier_mu_init,
+                        barrier_relaxation = Settings::default().barrier_relaxation))]
     // The defaults as Python sees them; tests compare them and the stub with `default_settings`.
     #[pyo3(
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
-                             portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.03, \
-                             portfolio_apart=0.001, barrier_funnel=0.03)"
+                             portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.003, \
+                             portfolio_apart=0.001, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             barrier_relaxation=0.1)"
     )]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -1122,6 +1131,8 @@ impl SafeCddpSolver {
         portfolio_third_mu: Option<f64>,
         portfolio_apart: f64,
         barrier_funnel: Option<f64>,
+        barrier_mu_init: f64,
+        barrier_relaxation: f64,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
         let settings = settings_from(
@@ -1135,6 +1146,8 @@ impl SafeCddpSolver {
             portfolio_third_mu,
             portfolio_apart,
             barrier_funnel,
+            barrier_mu_init,
+            barrier_relaxation,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1576,6 +1589,8 @@ impl Mpc {
             d.portfolio_third_mu,
             d.portfolio_apart,
             Some(d.barrier_funnel),
+            d.barrier_mu_init,
+            d.barrier_relaxation,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1877,12 +1892,15 @@ where
                     portfolio_threads = Settings::default().portfolio_threads as i64,
                     portfolio_third_mu = Settings::default().portfolio_third_mu,
                     portfolio_apart = Settings::default().portfolio_apart,
-                        barrier_funnel = Some(Settings::default().barrier_funnel)))]
+                        barrier_funnel = Some(Settings::default().barrier_funnel),
+                        barrier_mu_init = Settings::default().barrier_mu_init,
+                        barrier_relaxation = Settings::default().barrier_relaxation))]
 #[pyo3(
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
-                             portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.03, \
-                             portfolio_apart=0.001, barrier_funnel=0.03)"
+                             portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.003, \
+                             portfolio_apart=0.001, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             barrier_relaxation=0.1)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn solve_batch_safe(
@@ -1901,6 +1919,8 @@ fn solve_batch_safe(
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
     barrier_funnel: Option<f64>,
+    barrier_mu_init: f64,
+    barrier_relaxation: f64,
 ) -> PyResult<Vec<SafeSolution>> {
     let settings = settings_from(
         method,
@@ -1913,6 +1933,8 @@ fn solve_batch_safe(
         portfolio_third_mu,
         portfolio_apart,
         barrier_funnel,
+        barrier_mu_init,
+        barrier_relaxation,
     )?;
     let batch = crate::batch::problems_of(problems)?;
     let threads = crate::batch::threads_of(threads)?;

@@ -101,7 +101,7 @@ def test_the_extra_starts_run_only_where_the_first_two_end_apart() -> None:
     import pickle
 
     d = ddpkit.default_settings("SafeCddpSolver")
-    assert (d["portfolio_third_mu"], d["portfolio_apart"]) == (0.03, 1e-3)
+    assert (d["portfolio_third_mu"], d["portfolio_apart"]) == (0.003, 1e-3)
     # P3's two starts end within 1e-10 of each other: the default is the two-start portfolio.
     two = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_polish=False, portfolio_third_mu=None).solve()
     default = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles()).solve()
@@ -356,17 +356,26 @@ def test_the_barrier_funnel_keeps_the_way_around_a_wall_of_obstacles() -> None:
     obstacles = [ddpkit.Circle((ox, oy), r) for ox, oy, r in wall]
     ipopt = 0.09276029665544235
     assert ddpkit.default_settings("SafeCddpSolver")["barrier_funnel"] == 0.03
-    # Without the funnel both portfolio starts stop at the wall.
-    solver = ddpkit.SafeCddpSolver(problem, obstacles, barrier_funnel=None)
+    # The hard barrier of earlier versions (outside every obstacle from the first step): without
+    # the funnel both portfolio starts stop at the wall.
+    hard = {"barrier_mu_init": 3e-3, "barrier_relaxation": 1e-6, "portfolio_third_mu": 0.03}
+    solver = ddpkit.SafeCddpSolver(problem, obstacles, barrier_funnel=None, **hard)
     stalled = solver.solve()
     assert stalled.max_violation <= 1e-6 and stalled.cost > 10 * ipopt
-    default = ddpkit.SafeCddpSolver(problem, obstacles).solve()
-    assert default.max_violation <= 1e-6 and default.cost <= ipopt * (1 + 1e-6)
+    funnel = ddpkit.SafeCddpSolver(problem, obstacles, **hard).solve()
+    assert funnel.max_violation <= 1e-6 and funnel.cost <= ipopt * (1 + 1e-6)
+    # The default soft barrier goes round the wall with or without the funnel.
+    for kw in ({}, {"barrier_funnel": None}):
+        default = ddpkit.SafeCddpSolver(problem, obstacles, **kw).solve()
+        assert default.max_violation <= 1e-6 and default.cost <= ipopt * (1 + 1e-6)
     again = pickle.loads(pickle.dumps(solver))
-    assert again == solver and again != ddpkit.SafeCddpSolver(problem, obstacles)
+    assert again == solver and again != ddpkit.SafeCddpSolver(problem, obstacles, **hard)
     np.testing.assert_array_equal(again.solve().us, stalled.us)
-    batch = ddpkit.solve_batch_safe([problem], obstacles, threads=1, barrier_funnel=None)
+    batch = ddpkit.solve_batch_safe([problem], obstacles, threads=1, barrier_funnel=None, **hard)
     np.testing.assert_array_equal(batch[0].us, stalled.us)
+    for field, bad in (("barrier_mu_init", 0.0), ("barrier_mu_init", float("nan")), ("barrier_relaxation", -1.0)):
+        with pytest.raises(ValueError, match=field):
+            ddpkit.SafeCddpSolver(problem, obstacles, **{field: bad})
     for bad in (0.0, -1e-2, float("nan")):
         with pytest.raises(ValueError, match="barrier_funnel"):
             ddpkit.SafeCddpSolver(problem, obstacles, barrier_funnel=bad)

@@ -14,7 +14,7 @@
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
 //! the augmented Lagrangian; `FUNNEL` `barrier_funnel` (`inf`: none); `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
-//! tolerances; `METHOD=ddp` full DDP; `ONLY=id` filters problems; `TABLE`, `QPS`, `PHASES` print
+//! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES` print
 //! per-solve details.
 use std::time::Instant;
 
@@ -105,7 +105,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut sum_ms, mut sum_iters) = (0.0, 0usize);
     for rec in problems {
         let id = rec["id"].as_str().unwrap_or("?");
-        if only.as_deref().is_some_and(|o| !id.contains(o)) {
+        if only.as_deref().is_some_and(|o| !o.split(',').any(|o| id.contains(o))) {
             continue;
         }
         let spec = serde_json::to_string(&rec["spec"])?;

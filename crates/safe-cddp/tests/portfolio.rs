@@ -12,12 +12,25 @@ use safe_cddp::{SafeCddpSolver, Settings, Status, WarmUp};
 const POINT_S1_I24: &str = r#"{"name": "point-s1-i24-a0", "model": "point", "dt": 0.0833, "N": 91, "x0": [0.0, 0.0, 0.0, 0.0], "cost": {"kind": "quad_goal", "x_goal": [-0.9764, 3.511, 0.0, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[-0.2712, 0.4564, 0.4267], [-0.494, 3.0689, 0.2955], [-0.9667, 2.7136, 0.2993], [-0.5643, 1.8916, 0.4738], [-0.0353, 0.6335, 0.2534]]}"#;
 const IPOPT_COST: f64 = 0.44591998255635834;
 
-/// The portfolio's first two starts only.
+/// The barrier starts of the defaults before the soft barrier: the second start from
+/// `mu = 3e-3` with the logarithm relaxed only below a slack of 1e-6 (a hard wall), the third
+/// from `mu = 3e-2`. The tests of the mechanisms below were written against it: with the soft
+/// barrier the first two starts already reach the optimum on most of their problems.
+fn hard_barrier() -> Settings {
+    Settings {
+        barrier_mu_init: 3e-3,
+        barrier_relaxation: 1e-6,
+        portfolio_third_mu: Some(3e-2),
+        ..Settings::default()
+    }
+}
+
+/// The portfolio's first two starts only (with the hard barrier).
 fn two_starts() -> Settings {
     Settings {
         portfolio_third_mu: None,
         portfolio_polish: false,
-        ..Settings::default()
+        ..hard_barrier()
     }
 }
 
@@ -51,7 +64,10 @@ fn a_third_start_finds_the_better_optimum() {
         ..two_starts()
     });
     assert_eq!(three.4, again.4);
-    // The default runs it too (the first two starts end apart here) and keeps its optimum.
+    // The portfolio runs it too (the first two starts end apart here) and keeps its optimum.
+    let portfolio = solve(hard_barrier());
+    assert!(portfolio.0 <= IPOPT_COST * (1.0 + 1e-6), "portfolio: {}", portfolio.0);
+    // The default's soft barrier start reaches it by itself.
     let default = solve(Settings::default());
     assert!(default.0 <= IPOPT_COST * (1.0 + 1e-6), "default: {}", default.0);
 }
@@ -111,15 +127,28 @@ fn the_extra_starts_run_only_where_the_first_two_end_apart() {
     // the barrier start stalls at 900x the other's cost: neither is apart, and the default
     // portfolio is the two-start one there, bit for bit. With `portfolio_apart = 0` the third
     // start and the polish run and cannot end worse.
-    for file in ["p3_point4.json", "p2_car4.json"] {
+    // The same holds with the default's soft barrier.
+    for (file, base) in [
+        ("p3_point4.json", hard_barrier()),
+        ("p2_car4.json", hard_barrier()),
+        ("p3_point4.json", Settings::default()),
+        ("p2_car4.json", Settings::default()),
+    ] {
         let json = std::fs::read_to_string(format!("../../bench/problems/{file}")).unwrap();
-        let two = solve_json(&json, two_starts());
-        let default = solve_json(&json, Settings::default());
+        let two = solve_json(
+            &json,
+            Settings {
+                portfolio_third_mu: None,
+                portfolio_polish: false,
+                ..base
+            },
+        );
+        let default = solve_json(&json, base);
         let always = solve_json(
             &json,
             Settings {
                 portfolio_apart: 0.0,
-                ..Settings::default()
+                ..base
             },
         );
         assert_eq!(default.cost.to_bits(), two.cost.to_bits(), "{file}");
@@ -136,7 +165,7 @@ fn the_extra_starts_run_only_where_the_first_two_end_apart() {
     // with a gate wider than their gap it does not.
     let wide = solve(Settings {
         portfolio_apart: 10.0,
-        ..Settings::default()
+        ..hard_barrier()
     });
     assert_eq!(wide.4, solve(two_starts()).4);
 }
@@ -155,6 +184,7 @@ fn solve_json(json: &str, settings: Settings) -> safe_cddp::Report {
 
 #[test]
 fn the_polish_reaches_the_optimum_the_augmented_lagrangian_stopped_short_of() {
+    // With the hard barrier (the default's soft barrier start reaches this optimum itself).
     let plain = solve_json(CAR_S1_I10, two_starts());
     let polished = solve_json(
         CAR_S1_I10,
@@ -301,7 +331,7 @@ fn the_barrier_start_re_enters_with_the_warm_up_multipliers() {
     // 207 iterations; with the multipliers the warm-up handed over with, 100, to the same
     // optimum (below the NLP peers' 1.1972797).
     let json = std::fs::read_to_string("../../bench/problems/p2_car4.json").unwrap();
-    let r = solve_json(&json, Settings::default());
+    let r = solve_json(&json, hard_barrier());
     assert_eq!(r.status, Status::Converged);
     assert!(r.max_violation <= 1e-6, "violation {}", r.max_violation);
     assert!(r.cost <= 1.1972797186 * (1.0 + 1e-6), "cost {}", r.cost);
@@ -324,7 +354,7 @@ const POINT_S2_I17_IPOPT: f64 = 0.09276029665544235;
 fn the_funnel_keeps_the_augmented_lagrangian_out_of_a_wall_of_obstacles() {
     let barrier = Settings {
         warm_up: WarmUp::Barrier,
-        ..Settings::default()
+        ..hard_barrier()
     };
     let open = |s: Settings| Settings {
         barrier_funnel: f64::INFINITY,
@@ -338,16 +368,16 @@ fn the_funnel_keeps_the_augmented_lagrangian_out_of_a_wall_of_obstacles() {
     // the wall, its violation stalls there, and it ends back near the start.
     let stalled = solve_json(POINT_S2_I17, open(barrier));
     assert!(stalled.cost > 10.0 * POINT_S2_I17_IPOPT, "no funnel: {}", stalled.cost);
-    // The default portfolio keeps the barrier start's optimum; without the funnel both of its
-    // starts end at the wall.
-    let default = solve_json(POINT_S2_I17, Settings::default());
-    assert!(default.max_violation <= 1e-6);
+    // The portfolio keeps the barrier start's optimum; without the funnel both of its starts
+    // end at the wall.
+    let portfolio = solve_json(POINT_S2_I17, hard_barrier());
+    assert!(portfolio.max_violation <= 1e-6);
     assert!(
-        default.cost <= POINT_S2_I17_IPOPT * (1.0 + 1e-6),
-        "default: {}",
-        default.cost
+        portfolio.cost <= POINT_S2_I17_IPOPT * (1.0 + 1e-6),
+        "portfolio: {}",
+        portfolio.cost
     );
-    let without = solve_json(POINT_S2_I17, open(Settings::default()));
+    let without = solve_json(POINT_S2_I17, open(hard_barrier()));
     assert!(
         without.cost > 10.0 * POINT_S2_I17_IPOPT,
         "portfolio without funnel: {}",
@@ -359,6 +389,14 @@ fn the_funnel_keeps_the_augmented_lagrangian_out_of_a_wall_of_obstacles() {
     let (with, none) = (
         solve_json(&p3, Settings::default()),
         solve_json(&p3, open(Settings::default())),
+    );
+    // The default's soft barrier goes round the wall without the funnel.
+    let soft = solve_json(POINT_S2_I17, open(Settings::default()));
+    assert!(soft.max_violation <= 1e-6);
+    assert!(
+        soft.cost <= POINT_S2_I17_IPOPT * (1.0 + 1e-6),
+        "soft barrier, no funnel: {}",
+        soft.cost
     );
     assert_eq!(with.cost.to_bits(), none.cost.to_bits());
     assert_eq!(
@@ -377,4 +415,50 @@ fn bad_funnel_is_rejected_by_name() {
         let err = s.validate().unwrap_err().to_string();
         assert!(err.contains("barrier_funnel"), "{err}");
     }
+}
+
+/// Problem 8 of the point family, seed 6 (`bench/results/family_s6_210.json`): both starts of
+/// the hard barrier's portfolio pass the first obstacle on the side that costs 4.52 and agree,
+/// so no third start runs; IPOPT's optimum (0.10679) passes it on the other side.
+const POINT_S6_I8: &str = r#"{"name": "point-s6-i8-a0", "model": "point", "dt": 0.0945, "N": 137, "x0": [0.0, 0.0, 0.0, 0.0], "cost": {"kind": "quad_goal", "x_goal": [-1.7076, -4.2253, 0.0, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[-0.6657, -0.6201, 0.368], [-0.8349, -2.8655, 0.3299], [-0.2735, -1.1965, 0.376]]}"#;
+const POINT_S6_I8_IPOPT: f64 = 0.10679364285732115;
+
+#[test]
+fn the_soft_barrier_chooses_the_cheaper_way_round() {
+    // The soft barrier (the default: `mu` from 3e-2, the logarithm continued as a quadratic
+    // below a slack of 0.1) lets the trajectory cross the obstacles' edges while it chooses
+    // its way, as IPOPT's slacks do, and finds IPOPT's side.
+    let soft = solve_json(
+        POINT_S6_I8,
+        Settings {
+            warm_up: WarmUp::Barrier,
+            ..Settings::default()
+        },
+    );
+    assert_eq!(soft.status, Status::Converged);
+    assert!(soft.max_violation <= 1e-6, "{}", soft.max_violation);
+    assert!(
+        soft.cost <= POINT_S6_I8_IPOPT * (1.0 + 1e-6),
+        "soft barrier: {}",
+        soft.cost
+    );
+    // The hard barrier keeps it outside every obstacle from the first step and ends 40x above.
+    let hard = solve_json(
+        POINT_S6_I8,
+        Settings {
+            warm_up: WarmUp::Barrier,
+            ..hard_barrier()
+        },
+    );
+    assert!(hard.max_violation <= 1e-6);
+    assert!(hard.cost > 10.0 * POINT_S6_I8_IPOPT, "hard barrier: {}", hard.cost);
+    // The default portfolio keeps the soft barrier's optimum; the hard barrier's does not find it.
+    let default = solve_json(POINT_S6_I8, Settings::default());
+    assert!(default.max_violation <= 1e-6);
+    assert!(
+        default.cost <= POINT_S6_I8_IPOPT * (1.0 + 1e-6),
+        "default: {}",
+        default.cost
+    );
+    assert!(solve_json(POINT_S6_I8, hard_barrier()).cost > 10.0 * POINT_S6_I8_IPOPT);
 }

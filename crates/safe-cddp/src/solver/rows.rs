@@ -383,19 +383,42 @@ where
         n: usize,
         merit: Merit<'_>,
     ) -> Violation {
+        // One sweep per kind of merit, so that the row loop does not branch on it.
+        match merit {
+            m @ Merit::Penalty(_) => self.violation_of(constraints, xs, us, n, |i, v| m.row(i, v).0),
+            m @ Merit::Lagrangian { .. } => self.violation_of(constraints, xs, us, n, |i, v| m.row(i, v).0),
+            m @ Merit::Barrier { .. } => self.violation_of(constraints, xs, us, n, |i, v| m.row(i, v).0),
+        }
+    }
+
+    #[inline(always)]
+    fn violation_of(
+        &mut self,
+        constraints: &[Arc<dyn Constraint<NX, NU>>],
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        n: usize,
+        term_of: impl Fn(usize, f64) -> f64,
+    ) -> Violation {
         let (mut term, mut max) = (0.0, 0.0f64);
         let (mut knot, mut count, mut knot_max, mut overlap) = (usize::MAX, 0u32, 0.0f64, 0.0f64);
+        // Comparisons rather than `f64::max`, which handles NaN on every call: a NaN row leaves
+        // `max` as `f64::max` would (and makes `term` NaN, which the line search rejects).
         self.for_each_row(constraints, xs, us, n, |k, i, v| {
-            max = max.max(v);
-            term += merit.row(i, v).0;
+            term += term_of(i, v);
             if v > 0.0 {
+                if v > max {
+                    max = v;
+                }
                 if k != knot {
                     (knot, count, knot_max) = (k, 0, 0.0);
                 }
                 count += 1;
-                knot_max = knot_max.max(v);
-                if count >= 2 {
-                    overlap = overlap.max(knot_max);
+                if v > knot_max {
+                    knot_max = v;
+                }
+                if count >= 2 && knot_max > overlap {
+                    overlap = knot_max;
                 }
             }
         });

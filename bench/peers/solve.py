@@ -90,8 +90,8 @@ def costs_of(p: BenchProblem) -> tuple[ddpkit.Cost, ddpkit.Cost]:
 
 
 def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
-    """`--two-starts`, `--apart` and `--portfolio-threads`: the `SafeCddpSolver` options the peer
-    benchmarks expose (read back with `safe_options_of`)."""
+    """`--two-starts`, `--apart`, `--barrier-funnel`, `--hard-barrier` and `--portfolio-threads`:
+    the `SafeCddpSolver` options the peer benchmarks expose (read back with `safe_options_of`)."""
     ap.add_argument(
         "--two-starts",
         action="store_true",
@@ -114,6 +114,12 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "(inf: no limit; default: the library's)",
     )
     ap.add_argument(
+        "--hard-barrier",
+        action="store_true",
+        help="ddpkit with SafeCddpSolver(barrier_mu_init=3e-3, barrier_relaxation=1e-6, portfolio_third_mu=0.03): "
+        "the hard barrier starts of the default before the soft barrier (2026-12-05)",
+    )
+    ap.add_argument(
         "--portfolio-threads",
         type=int,
         default=1,
@@ -127,6 +133,8 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
     """The `SafeCddpSolver` keywords of `add_safe_arguments`'s options (only those given: the
     others keep the library's defaults)."""
     options: dict[str, Any] = {"portfolio_threads": args.portfolio_threads}
+    if args.hard_barrier:
+        options.update(barrier_mu_init=3e-3, barrier_relaxation=1e-6, portfolio_third_mu=0.03)
     if args.two_starts:
         options.update(portfolio_third_mu=None, portfolio_polish=False)
     if args.apart is not None:

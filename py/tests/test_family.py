@@ -132,3 +132,23 @@ def test_repeats_default_and_median() -> None:
     d = rec["solvers"]["ddpkit"]
     assert len(d["ms_all"]) == 3
     assert d["ms"] == pytest.approx(sorted(d["ms_all"])[1])
+
+
+def test_the_hard_barrier_option_gives_the_earlier_starts() -> None:
+    # `--hard-barrier` selects the barrier starts of the default before the soft barrier; on
+    # point-s6-i8-a0 they pass the first obstacle on the costly side, the soft default does not.
+    import solve
+
+    args = family.build_parser().parse_args(["--problems", "3", "--seed", "6", "--hard-barrier"])
+    options = solve.safe_options_of(args)
+    assert (options["barrier_mu_init"], options["barrier_relaxation"], options["portfolio_third_mu"]) == (3e-3, 1e-6, 0.03)
+    default = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "6"]))
+    assert "barrier_mu_init" not in default and "barrier_relaxation" not in default
+    spec = family.generate("point", 6, 8)
+    assert spec["name"] == "point-s6-i8-a0"
+    p = parse(spec)
+    hard = solve.DdpkitSolver(p, safe_options=options).solve()
+    soft = solve.DdpkitSolver(p, safe_options=default).solve()
+    ipopt = 0.10679364285732115  # bench/results/family_s6_210.json
+    assert soft.status == "converged" and soft.cost <= ipopt * (1 + 1e-6)
+    assert hard.cost > 10 * ipopt

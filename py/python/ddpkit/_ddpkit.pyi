@@ -1369,7 +1369,7 @@ class SafeCddpSolver:
     it goes on with ``portfolio_third_mu`` (a third start, the barrier homotopy from this
     ``mu``; ``None``: none) and ``portfolio_polish`` (when the kept solution is the augmented
     Lagrangian's own, one more start from it with cold multipliers), each kept when better: the
-    benchmark family's optima on 92 % of problems instead of 88 %, for about 1.3x the
+    benchmark family's optima on 92 % of problems instead of 89 %, for about 1.3x the
     iterations (``portfolio_third_mu=None, portfolio_polish=False`` for the two starts alone).
     ``portfolio_threads``: 1, or 2 to run the portfolio's first two starts at once on two
     threads (the same solution and iterations, less wall time). ``barrier_funnel`` (``None``: no

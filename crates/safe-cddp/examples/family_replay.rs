@@ -13,9 +13,12 @@
 //! (`Settings::portfolio_apart`), `THREADS=2` its concurrent starts
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
-//! the augmented Lagrangian; `FUNNEL` `barrier_funnel` (`inf`: none); `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
+//! the augmented Lagrangian, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
+//! `al_inner_progress`, `al_inner_progress_below`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
 //! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES` print
-//! per-solve details.
+//! per-solve details. `REPEATS=R` times the fastest of `R` solves of each problem; `AB=1` also
+//! solves each problem with the defaults (and the command line's warm-up), interleaved with the
+//! settings above, and prints `AB` lines with both outcomes and the time ratio (`bench/peers/README.md`).
 use std::time::Instant;
 
 use safe_cddp::benchmark::BenchmarkProblem;
@@ -93,8 +96,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = env("GRAD_TOL") {
         s.tolerances.gradient = v;
     }
+    if let Some(v) = env("INNER_PROGRESS") {
+        s.al_inner_progress = v;
+    }
+    if let Some(v) = env("INNER_PROGRESS_BELOW") {
+        s.al_inner_progress_below = v;
+    }
     if let Some(v) = env("FUNNEL") {
         s.barrier_funnel = v;
+    }
+    if let Some(v) = env("LS_MIN") {
+        s.line_search.step_min = v;
     }
     if let Some(v) = env("AL_SWITCH") {
         s.al_switch_violation = v;
@@ -134,7 +146,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let mut out = (f64::INFINITY, f64::INFINITY, 0, safe_cddp::Status::MaxIterations, 0.0);
         for v in variants {
-            let (cost, viol, iters, status, ms) = solve_one(&bp, v)?;
+            // REPEATS=R: the fastest of R solves (the same iterates), for steadier time ratios.
+            // AB=1: also the defaults (with the command line's warm-up), interleaved with these
+            // settings on each problem, and the time ratio printed.
+            let repeats = env("REPEATS").map_or(1, |r| r as usize);
+            let base = std::env::var("AB").is_ok().then_some(Settings {
+                warm_up: v.warm_up,
+                ..Settings::default()
+            });
+            let mut base_ms = f64::INFINITY;
+            let mut base_out = None;
+            let (cost, viol, iters, status, mut ms) = solve_one(&bp, v)?;
+            for r in 0..repeats {
+                if let Some(b) = base {
+                    let o = solve_one(&bp, b)?;
+                    base_ms = base_ms.min(o.4);
+                    base_out = Some(o);
+                }
+                if r > 0 {
+                    ms = ms.min(solve_one(&bp, v)?.4);
+                }
+            }
+            if let Some(o) = base_out {
+                let ok = o.1 <= 1e-6 && o.0 <= best * (1.0 + 1e-6);
+                let gap = (o.0 - best) / best.abs();
+                println!(
+                    "AB {id:24} base {} gap {gap:+.2e} it {} ms {base_ms:.4} new ms {ms:.4} ratio {:.4}",
+                    if ok { "match" } else { "MISS " },
+                    o.2,
+                    ms / base_ms
+                );
+            }
             let better = (viol <= 1e-6 && (out.1 > 1e-6 || cost < out.0)) || (out.1 > 1e-6 && viol < out.1);
             if better {
                 out = (cost, viol, out.2 + iters, status, out.4 + ms);
@@ -185,6 +227,12 @@ fn solve_one(bp: &BenchmarkProblem, s: Settings) -> Result<Outcome, Box<dyn std:
             let ms = t.elapsed().as_secs_f64() * 1e3;
             if table {
                 println!("{}", r.table());
+            }
+            if std::env::var("PASSES").is_ok() {
+                println!(
+                    "  passes: it {} fp {} bp {}",
+                    r.iterations, r.forward_passes, r.backward_passes
+                );
             }
             if std::env::var("QPS").is_ok() {
                 println!("  qp: {:?}", r.qp);

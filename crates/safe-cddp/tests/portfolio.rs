@@ -14,13 +14,16 @@ const IPOPT_COST: f64 = 0.44591998255635834;
 
 /// The barrier starts of the defaults before the soft barrier: the second start from
 /// `mu = 3e-3` with the logarithm relaxed only below a slack of 1e-6 (a hard wall), the third
-/// from `mu = 3e-2`. The tests of the mechanisms below were written against it: with the soft
-/// barrier the first two starts already reach the optimum on most of their problems.
+/// from `mu = 3e-2`; and their inner augmented-Lagrangian solves, ended only by the merit's
+/// relative change and the iteration limits (`al_inner_progress = 0`). The tests of the
+/// mechanisms below were written against it: with the soft barrier the first two starts
+/// already reach the optimum on most of their problems.
 fn hard_barrier() -> Settings {
     Settings {
         barrier_mu_init: 3e-3,
         barrier_relaxation: 1e-6,
         portfolio_third_mu: Some(3e-2),
+        al_inner_progress: 0.0,
         ..Settings::default()
     }
 }

@@ -137,11 +137,14 @@ fn rows_with_positive_multipliers_stay_active_at_the_hand_over() {
     // the solve ended at the warm-up's point, 8.3e-6 above the optimum. That hand-over comes
     // from the barrier start without its funnel (`Settings::barrier_funnel`; its obstacles
     // overlap, and with the funnel the portfolio keeps a neighbouring optimum 8.5e-5 above
-    // FATROP's instead).
+    // FATROP's instead), and with the inner solves ended only by the merit's relative change
+    // (`Settings::al_inner_progress` 0; with it the augmented Lagrangian reaches another
+    // hand-over).
     let bp = BenchmarkProblem::from_json(POINT_S1_I65).unwrap();
     let (problem, constraints) = bp.car_or_point().unwrap();
     let settings = Settings {
         barrier_funnel: f64::INFINITY,
+        al_inner_progress: 0.0,
         ..Settings::default()
     };
     let mut solver = SafeCddpSolver::new(&problem, constraints, settings).unwrap();

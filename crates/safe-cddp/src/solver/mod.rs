@@ -1114,11 +1114,13 @@ where
         self.it.trust = (self.it.trust / s.trust_shrink).min(s.trust_region);
         if self.warm.active {
             self.warm.inner += 1;
-            // Done when the merit has stopped moving, or (the augmented Lagrangian) when a full
-            // step moved it less than the next multiplier update will (`al_inner_progress`).
+            // Done when the merit has stopped moving, or (the augmented Lagrangian of a cold
+            // start or after a failed KKT/QP step) when a full step moved it less than the next
+            // multiplier update will (`al_inner_progress`).
             let v = self.it.violation_max;
             let inner_done = change.abs() < s.al_inner_tolerance * (1.0 + self.it.merit.abs())
                 || (!self.warm.barrier
+                    && (self.warm.from_cold || self.warm.kkt_failed)
                     && alpha == 1.0
                     && v < s.al_inner_progress_below
                     && change.abs() < s.al_inner_progress * self.warm.rho * v * v);

@@ -818,6 +818,7 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     )?;
     d.set_item("barrier_mu_init", s.barrier_mu_init)?;
     d.set_item("barrier_relaxation", s.barrier_relaxation)?;
+    d.set_item("al_inner_progress", s.al_inner_progress)?;
     Ok(d)
 }
 
@@ -847,6 +848,7 @@ fn settings_from(
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
+    al_inner_progress: f64,
 ) -> CoreResult<Settings> {
     let method = parse_method(method)?;
     let warm_up = [
@@ -895,6 +897,7 @@ fn settings_from(
         barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
         barrier_mu_init,
         barrier_relaxation,
+        al_inner_progress,
         ..Settings::default()
     };
     s.validate()?;
@@ -1107,14 +1110,15 @@ impl SafeCddpSolver {
                         portfolio_apart = Settings::default().portfolio_apart,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
-                        barrier_relaxation = Settings::default().barrier_relaxation))]
+                        barrier_relaxation = Settings::default().barrier_relaxation,
+                        al_inner_progress = Settings::default().al_inner_progress))]
     // The defaults as Python sees them; tests compare them and the stub with `default_settings`.
     #[pyo3(
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.003, \
                              portfolio_apart=0.001, barrier_funnel=0.03, barrier_mu_init=0.03, \
-                             barrier_relaxation=0.1)"
+                             barrier_relaxation=0.1, al_inner_progress=1.0)"
     )]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -1133,6 +1137,7 @@ impl SafeCddpSolver {
         barrier_funnel: Option<f64>,
         barrier_mu_init: f64,
         barrier_relaxation: f64,
+        al_inner_progress: f64,
     ) -> PyResult<Self> {
         let specs = extract_constraints(constraints)?;
         let settings = settings_from(
@@ -1148,6 +1153,7 @@ impl SafeCddpSolver {
             barrier_funnel,
             barrier_mu_init,
             barrier_relaxation,
+            al_inner_progress,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1591,6 +1597,7 @@ impl Mpc {
             Some(d.barrier_funnel),
             d.barrier_mu_init,
             d.barrier_relaxation,
+            d.al_inner_progress,
         )?;
         let p = problem.get();
         let (nx, nu) = (p.nx, p.nu);
@@ -1894,13 +1901,14 @@ where
                     portfolio_apart = Settings::default().portfolio_apart,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
-                        barrier_relaxation = Settings::default().barrier_relaxation))]
+                        barrier_relaxation = Settings::default().barrier_relaxation,
+                        al_inner_progress = Settings::default().al_inner_progress))]
 #[pyo3(
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.003, \
                              portfolio_apart=0.001, barrier_funnel=0.03, barrier_mu_init=0.03, \
-                             barrier_relaxation=0.1)"
+                             barrier_relaxation=0.1, al_inner_progress=1.0)"
 )]
 #[allow(clippy::too_many_arguments)]
 fn solve_batch_safe(
@@ -1921,6 +1929,7 @@ fn solve_batch_safe(
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
+    al_inner_progress: f64,
 ) -> PyResult<Vec<SafeSolution>> {
     let settings = settings_from(
         method,
@@ -1935,6 +1944,7 @@ fn solve_batch_safe(
         barrier_funnel,
         barrier_mu_init,
         barrier_relaxation,
+        al_inner_progress,
     )?;
     let batch = crate::batch::problems_of(problems)?;
     let threads = crate::batch::threads_of(threads)?;

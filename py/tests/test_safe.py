@@ -356,9 +356,10 @@ def test_the_barrier_funnel_keeps_the_way_around_a_wall_of_obstacles() -> None:
     obstacles = [ddpkit.Circle((ox, oy), r) for ox, oy, r in wall]
     ipopt = 0.09276029665544235
     assert ddpkit.default_settings("SafeCddpSolver")["barrier_funnel"] == 0.03
-    # The hard barrier of earlier versions (outside every obstacle from the first step): without
-    # the funnel both portfolio starts stop at the wall.
-    hard = {"barrier_mu_init": 3e-3, "barrier_relaxation": 1e-6, "portfolio_third_mu": 0.03}
+    # The hard barrier of earlier versions (outside every obstacle from the first step), with
+    # their patient inner augmented-Lagrangian solves: without the funnel both portfolio starts
+    # stop at the wall.
+    hard = {"barrier_mu_init": 3e-3, "barrier_relaxation": 1e-6, "portfolio_third_mu": 0.03, "al_inner_progress": 0.0}
     solver = ddpkit.SafeCddpSolver(problem, obstacles, barrier_funnel=None, **hard)
     stalled = solver.solve()
     assert stalled.max_violation <= 1e-6 and stalled.cost > 10 * ipopt
@@ -373,9 +374,34 @@ def test_the_barrier_funnel_keeps_the_way_around_a_wall_of_obstacles() -> None:
     np.testing.assert_array_equal(again.solve().us, stalled.us)
     batch = ddpkit.solve_batch_safe([problem], obstacles, threads=1, barrier_funnel=None, **hard)
     np.testing.assert_array_equal(batch[0].us, stalled.us)
-    for field, bad in (("barrier_mu_init", 0.0), ("barrier_mu_init", float("nan")), ("barrier_relaxation", -1.0)):
+    for field, bad in (
+        ("barrier_mu_init", 0.0),
+        ("barrier_mu_init", float("nan")),
+        ("barrier_relaxation", -1.0),
+        ("al_inner_progress", -1.0),
+        ("al_inner_progress", float("inf")),
+    ):
         with pytest.raises(ValueError, match=field):
             ddpkit.SafeCddpSolver(problem, obstacles, **{field: bad})
     for bad in (0.0, -1e-2, float("nan")):
         with pytest.raises(ValueError, match="barrier_funnel"):
             ddpkit.SafeCddpSolver(problem, obstacles, barrier_funnel=bad)
+
+
+def test_inner_solves_end_once_a_step_moves_the_merit_less_than_a_multiplier_update() -> None:
+    import pickle
+
+    # P3 (three discs): the same optimum with and without the rule, fewer
+    # iterations with it (the augmented-Lagrangian start's inner solves stop refining minimisers
+    # the next multiplier update moves anyway).
+    problem, obstacles = p3_problem(), p3_obstacles()
+    assert ddpkit.default_settings("SafeCddpSolver")["al_inner_progress"] == 1.0
+    patient = ddpkit.SafeCddpSolver(problem, obstacles, al_inner_progress=0.0)
+    default = ddpkit.SafeCddpSolver(problem, obstacles)
+    a, b = patient.solve(), default.solve()
+    for s in (a, b):
+        assert s.status == "converged" and s.max_violation <= 1e-6
+        assert s.cost <= P3_COST * (1 + 1e-6)
+    assert b.iterations + b.discarded_iterations < a.iterations + a.discarded_iterations
+    again = pickle.loads(pickle.dumps(patient))
+    assert again == patient and again != default

@@ -14,7 +14,8 @@
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
 //! the augmented Lagrangian, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
-//! `al_inner_progress`, `al_inner_progress_below`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
+//! `al_inner_progress`, `al_inner_progress_below`, `NEAR_MARGIN`, `NEAR_RHO` `al_near_margin`,
+//! `al_near_rho`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
 //! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES` print
 //! per-solve details. `REPEATS=R` times the fastest of `R` solves of each problem; `AB=1` also
 //! solves each problem with the defaults (and the command line's warm-up), interleaved with the
@@ -101,6 +102,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("INNER_PROGRESS_BELOW") {
         s.al_inner_progress_below = v;
+    }
+    if let Some(v) = env("NEAR_MARGIN") {
+        s.al_near_margin = v;
+    }
+    if let Some(v) = env("NEAR_RHO") {
+        s.al_near_rho = v;
     }
     if let Some(v) = env("FUNNEL") {
         s.barrier_funnel = v;

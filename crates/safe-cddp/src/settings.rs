@@ -205,6 +205,23 @@ pub struct Settings {
     /// 3.7x above the optimum with the rule applied at any violation, at the optimum with it
     /// below 0.1). Infinite: at any violation.
     pub al_inner_progress_below: f64,
+    /// Once the augmented Lagrangian's penalty `rho` has reached [`Settings::al_near_rho`],
+    /// rows inactive at the nominal trajectory (`lambda + rho g <= 0`) but within this margin
+    /// of their boundary (`g > -al_near_margin`, in the rows' own units) get the penalty's
+    /// Gauss-Newton curvature `rho g_x g_x^T` in the backward pass, without a gradient. At such
+    /// a penalty the row turns on within a tiny step, and a model blind to it promises a
+    /// decrease that the merit, rising as `rho (g_x dx)^2`, does not give: the line searches
+    /// then fail down to the shortest step (23 % of the forward passes on a family seed's
+    /// replay, most of them in a handful of slow problems). With the curvature the step stays
+    /// on the row's side, a generalised Hessian of the penalty's `max(0, .)^2` at its kink. The
+    /// default `1e-4` (from `rho = 1e7`): on the family replays of nine seeds 1747 of 1890
+    /// problems match the peers' best instead of 1739, 64 miss by more than 5 % instead of 70
+    /// (`bench/peers/README.md`, "Rows near their boundary"). 0: none.
+    pub al_near_margin: f64,
+    /// The penalty from which [`Settings::al_near_margin`] applies. At lower penalties the
+    /// switching region is wide enough for the line search, and the extra curvature only slows
+    /// the inner solves (at every penalty: 12 fewer matches on seven seeds).
+    pub al_near_rho: f64,
     /// Most accepted inner iterations between two multiplier updates of the warm-up: the inner
     /// solves are inexact, and on a long obstacle-hugging valley (the car) waiting for
     /// `al_inner_tolerance` can take a hundred iterations of little progress.
@@ -262,6 +279,8 @@ impl Default for Settings {
             al_inner_tolerance: 1e-7,
             al_inner_progress: 1.0,
             al_inner_progress_below: 0.1,
+            al_near_margin: 1e-4,
+            al_near_rho: 1e7,
             al_inner_iterations: 20,
             al_cold_inner_iterations: 5,
         }
@@ -372,6 +391,18 @@ impl Settings {
             self.al_inner_progress_below >= 0.0,
             self.al_inner_progress_below,
             ">= 0 (infinite: at any violation)",
+        )?;
+        check(
+            "al_near_margin",
+            finite_nonneg(self.al_near_margin),
+            self.al_near_margin,
+            "finite and >= 0",
+        )?;
+        check(
+            "al_near_rho",
+            finite_pos(self.al_near_rho),
+            self.al_near_rho,
+            "finite and > 0",
         )?;
         check(
             "barrier_mu_init",

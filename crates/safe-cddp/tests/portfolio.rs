@@ -14,8 +14,9 @@ const IPOPT_COST: f64 = 0.44591998255635834;
 
 /// The barrier starts of the defaults before the soft barrier: the second start from
 /// `mu = 3e-3` with the logarithm relaxed only below a slack of 1e-6 (a hard wall), the third
-/// from `mu = 3e-2`; and their inner augmented-Lagrangian solves, ended only by the merit's
-/// relative change and the iteration limits (`al_inner_progress = 0`). The tests of the
+/// from `mu = 3e-2`; and their augmented Lagrangian: inner solves ended only by the merit's
+/// relative change and the iteration limits (`al_inner_progress = 0`), no curvature for rows
+/// near their boundary (`al_near_margin = 0`). The tests of the
 /// mechanisms below were written against it: with the soft barrier the first two starts
 /// already reach the optimum on most of their problems.
 fn hard_barrier() -> Settings {
@@ -24,6 +25,7 @@ fn hard_barrier() -> Settings {
         barrier_relaxation: 1e-6,
         portfolio_third_mu: Some(3e-2),
         al_inner_progress: 0.0,
+        al_near_margin: 0.0,
         ..Settings::default()
     }
 }
@@ -464,4 +466,68 @@ fn the_soft_barrier_chooses_the_cheaper_way_round() {
         default.cost
     );
     assert!(solve_json(POINT_S6_I8, hard_barrier()).cost > 10.0 * POINT_S6_I8_IPOPT);
+}
+
+/// Problem 6 of the unicycle family, seed 2 (`bench/results/family_s2_210_funnel.json`): both
+/// NLP peers end at 377.356; ddpkit's augmented-Lagrangian start finds a far cheaper way, but
+/// at its top penalty its line searches kept failing down to the shortest step.
+const UNICYCLE_S2_I6: &str = r#"{"name": "unicycle-s2-i6-a0", "model": "unicycle", "dt": 0.0694, "N": 115, "x0": [0.0, 0.0, -0.9144], "cost": {"kind": "quad_goal", "x_goal": [2.1559, -2.4471, -1.2264], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0]}, "obstacles": [[0.381, -0.4841, 0.212], [0.7782, -0.352, 0.3253], [1.7478, -2.3561, 0.3231], [1.8729, -1.6271, 0.2827]]}"#;
+
+#[test]
+fn rows_near_their_boundary_get_curvature_at_a_high_penalty() {
+    let bp = BenchmarkProblem::from_json(UNICYCLE_S2_I6).unwrap();
+    let (problem, constraints) = bp.unicycle().unwrap();
+    let solve = |al_near_margin: f64| {
+        let settings = Settings {
+            warm_up: WarmUp::AugmentedLagrangian,
+            al_near_margin,
+            ..Settings::default()
+        };
+        let mut solver = SafeCddpSolver::new(&problem, constraints.clone(), settings).unwrap();
+        solver.solve(&problem).unwrap().clone()
+    };
+    let blind = solve(0.0);
+    let near = solve(Settings::default().al_near_margin);
+    for r in [&blind, &near] {
+        assert_eq!(r.status, Status::Converged);
+        assert!(r.max_violation <= 1e-6, "{}", r.max_violation);
+        assert!(r.cost < 0.1 * 377.356, "cost {}", r.cost);
+    }
+    // The same optimum (within the stopping tolerances)...
+    assert!(
+        (near.cost - blind.cost).abs() <= 1e-6 * blind.cost,
+        "{} against {}",
+        near.cost,
+        blind.cost
+    );
+    // ...with a fraction of the forward passes (143 against 612).
+    assert!(
+        2 * near.forward_passes < blind.forward_passes,
+        "{} against {} forward passes",
+        near.forward_passes,
+        blind.forward_passes
+    );
+    // Bad values are named.
+    for (name, settings) in [
+        (
+            "settings.al_near_margin",
+            Settings {
+                al_near_margin: f64::NAN,
+                ..Settings::default()
+            },
+        ),
+        (
+            "settings.al_near_rho",
+            Settings {
+                al_near_rho: 0.0,
+                ..Settings::default()
+            },
+        ),
+    ] {
+        let e = SafeCddpSolver::new(&problem, constraints.clone(), settings)
+            .err()
+            .expect("rejected")
+            .to_string();
+        assert!(e.contains(name), "{e}");
+    }
 }

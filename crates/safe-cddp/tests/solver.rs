@@ -139,12 +139,13 @@ fn rows_with_positive_multipliers_stay_active_at_the_hand_over() {
     // overlap, and with the funnel the portfolio keeps a neighbouring optimum 8.5e-5 above
     // FATROP's instead), and with the inner solves ended only by the merit's relative change
     // (`Settings::al_inner_progress` 0; with it the augmented Lagrangian reaches another
-    // hand-over).
+    // hand-over) and no curvature for rows near their boundary (`al_near_margin` 0).
     let bp = BenchmarkProblem::from_json(POINT_S1_I65).unwrap();
     let (problem, constraints) = bp.car_or_point().unwrap();
     let settings = Settings {
         barrier_funnel: f64::INFINITY,
         al_inner_progress: 0.0,
+        al_near_margin: 0.0,
         ..Settings::default()
     };
     let mut solver = SafeCddpSolver::new(&problem, constraints, settings).unwrap();

@@ -264,6 +264,8 @@ where
                 rho: self.warm.rho,
             }
         };
+        let s_near_margin = self.settings.al_near_margin;
+        let near = !barrier && s_near_margin > 0.0 && self.warm.rho >= self.settings.al_near_rho;
         let rows = &mut self.rows;
         let lin = &mut self.core.lin;
         let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
@@ -286,6 +288,24 @@ where
                     }
                     rows.sw[r] = nu;
                     if nu <= 0.0 {
+                        // At a high penalty a row just inside its boundary turns on within a
+                        // tiny step, where a model blind to it promises a decrease the merit
+                        // does not give (it rises as `rho (g_x dx)^2`): its curvature, without
+                        // a gradient, keeps the step from crossing it (`Settings::al_near_margin`).
+                        if near && v > -s_near_margin {
+                            let rho = self.warm.rho;
+                            let (gx, gu) = (&rows.gx[i], &rows.gu[i]);
+                            if slot.mixed {
+                                let l = &mut lin.l[k];
+                                l.lxx.ger(rho, gx, gx, 1.0);
+                                l.luu.ger(rho, gu, gu, 1.0);
+                                l.lux.ger(rho, gu, gx, 1.0);
+                            } else if t == n {
+                                lin.l_n.lxx.ger(rho, gx, gx, 1.0);
+                            } else {
+                                lin.l[t].lxx.ger(rho, gx, gx, 1.0);
+                            }
+                        }
                         continue;
                     }
                     any = true;

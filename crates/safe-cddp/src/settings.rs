@@ -216,7 +216,10 @@ pub struct Settings {
     /// on the row's side, a generalised Hessian of the penalty's `max(0, .)^2` at its kink. The
     /// default `1e-4` (from `rho = 1e7`): on the family replays of nine seeds 1747 of 1890
     /// problems match the peers' best instead of 1739, 64 miss by more than 5 % instead of 70
-    /// (`bench/peers/README.md`, "Rows near their boundary"). 0: none.
+    /// (`bench/peers/README.md`, "Rows near their boundary"). Like
+    /// [`Settings::al_inner_progress`] it applies to cold starts and to re-entries after a failed
+    /// KKT/QP step, not to the MPC's re-entries after a tightening (there it moved the car of
+    /// Table I at `beta = 0.99` from 0 to 1 violated episode). 0: none.
     pub al_near_margin: f64,
     /// The penalty from which [`Settings::al_near_margin`] applies. At lower penalties the
     /// switching region is wide enough for the line search, and the extra curvature only slows

@@ -265,7 +265,11 @@ where
             }
         };
         let s_near_margin = self.settings.al_near_margin;
-        let near = !barrier && s_near_margin > 0.0 && self.warm.rho >= self.settings.al_near_rho;
+        // Cold starts and re-entries after a failed KKT/QP step, as `al_inner_progress`.
+        let near = !barrier
+            && (self.warm.from_cold || self.warm.kkt_failed)
+            && s_near_margin > 0.0
+            && self.warm.rho >= self.settings.al_near_rho;
         let rows = &mut self.rows;
         let lin = &mut self.core.lin;
         let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);

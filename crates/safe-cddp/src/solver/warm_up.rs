@@ -291,28 +291,18 @@ where
                         rho = self.warm.lambda[i] / -v;
                     }
                     rows.sw[r] = nu;
-                    if nu <= 0.0 {
+                    let (nu, rho) = if nu > 0.0 {
+                        any = true;
+                        (nu, rho)
+                    } else if near && v > -s_near_margin {
                         // At a high penalty a row just inside its boundary turns on within a
                         // tiny step, where a model blind to it promises a decrease the merit
                         // does not give (it rises as `rho (g_x dx)^2`): its curvature, without
                         // a gradient, keeps the step from crossing it (`Settings::al_near_margin`).
-                        if near && v > -s_near_margin {
-                            let rho = self.warm.rho;
-                            let (gx, gu) = (&rows.gx[i], &rows.gu[i]);
-                            if slot.mixed {
-                                let l = &mut lin.l[k];
-                                l.lxx.ger(rho, gx, gx, 1.0);
-                                l.luu.ger(rho, gu, gu, 1.0);
-                                l.lux.ger(rho, gu, gx, 1.0);
-                            } else if t == n {
-                                lin.l_n.lxx.ger(rho, gx, gx, 1.0);
-                            } else {
-                                lin.l[t].lxx.ger(rho, gx, gx, 1.0);
-                            }
-                        }
+                        (0.0, self.warm.rho)
+                    } else {
                         continue;
-                    }
-                    any = true;
+                    };
                     let (gx, gu) = (&rows.gx[i], &rows.gu[i]);
                     if slot.mixed {
                         let l = &mut lin.l[k];

@@ -114,6 +114,44 @@ fn bad_settings_and_shapes_are_errors() {
     .unwrap_err()
     .to_string();
     assert!(e.contains("settings.trust_shrink"), "{e}");
+    // The augmented Lagrangian's inner-solve and near-row settings.
+    let d = Settings::default;
+    for (name, settings) in [
+        (
+            "settings.al_inner_progress",
+            Settings {
+                al_inner_progress: -1.0,
+                ..d()
+            },
+        ),
+        (
+            "settings.al_inner_progress_below",
+            Settings {
+                al_inner_progress_below: f64::NAN,
+                ..d()
+            },
+        ),
+        (
+            "settings.al_near_margin",
+            Settings {
+                al_near_margin: f64::NAN,
+                ..d()
+            },
+        ),
+        (
+            "settings.al_near_rho",
+            Settings {
+                al_near_rho: 0.0,
+                ..d()
+            },
+        ),
+    ] {
+        let e = SafeCddpSolver::new(&problem, vec![], settings)
+            .err()
+            .expect("rejected")
+            .to_string();
+        assert!(e.contains(name), "{e}");
+    }
     let mut solver = SafeCddpSolver::new(&problem, vec![], Settings::default()).unwrap();
     let e = solver.set_controls(&[Vector::<2>::zeros(); 3]).unwrap_err().to_string();
     assert!(e.contains("us"), "{e}");

@@ -146,10 +146,7 @@ fn bad_settings_and_shapes_are_errors() {
             },
         ),
     ] {
-        let e = SafeCddpSolver::new(&problem, vec![], settings)
-            .err()
-            .expect("rejected")
-            .to_string();
+        let e = SafeCddpSolver::new(&problem, vec![], settings).unwrap_err().to_string();
         assert!(e.contains(name), "{e}");
     }
     let mut solver = SafeCddpSolver::new(&problem, vec![], Settings::default()).unwrap();

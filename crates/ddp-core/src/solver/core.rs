@@ -1135,11 +1135,16 @@ fn regularize<NX: Dim, NU: Dim>(
 {
     match placement {
         Regularization::Control => {
-            copy(&mut q.q_uu_r, &q.q_uu);
-            let m = q.q_uu_r.nrows();
-            let r = q.q_uu_r.as_mut_slice();
-            for i in 0..m {
-                r[i * m + i] += mu;
+            // Symmetrised and shifted in one pass that reads `q_uu` and only writes `q_uu_r`:
+            // re-reading entries just written as scalars with wider loads stalls on store
+            // forwarding (about 2 % of a family solve when done in place).
+            let m = q.q_uu.nrows();
+            let (a, r) = (q.q_uu.as_slice(), q.q_uu_r.as_mut_slice());
+            for j in 0..m {
+                for i in 0..m {
+                    r[j * m + i] = 0.5 * (a[j * m + i] + a[i * m + j]);
+                }
+                r[j * m + j] += mu;
             }
             copy(&mut q.q_ux_r, &q.q_ux);
         }
@@ -1150,15 +1155,15 @@ fn regularize<NX: Dim, NU: Dim>(
             tr_mul_add(&mut q.q_ux_r, None, fu, fx);
             q.q_ux_r *= mu;
             q.q_ux_r += &q.q_ux;
-        }
-    }
-    let m = q.q_uu_r.nrows();
-    let r = q.q_uu_r.as_mut_slice();
-    for j in 0..m {
-        for i in 0..j {
-            let s = 0.5 * (r[j * m + i] + r[i * m + j]);
-            r[j * m + i] = s;
-            r[i * m + j] = s;
+            let m = q.q_uu_r.nrows();
+            let r = q.q_uu_r.as_mut_slice();
+            for j in 0..m {
+                for i in 0..j {
+                    let s = 0.5 * (r[j * m + i] + r[i * m + j]);
+                    r[j * m + i] = s;
+                    r[i * m + j] = s;
+                }
+            }
         }
     }
 }

@@ -375,6 +375,51 @@ where
     }
 }
 
+/// [`cholesky_in_place`] into `l` from `a` (which is left as it is): the lower triangle of `l`
+/// becomes `L`, its strict upper triangle is unspecified. `a` is read one entry at a time: where
+/// `a` was just written entry by entry (a regularised `Q_uu`), copying it first with wide loads
+/// stalls on store forwarding.
+#[inline(always)]
+pub fn cholesky_from<N: Dim>(a: &MatrixN<N, N>, l: &mut MatrixN<N, N>) -> bool
+where
+    DefaultAllocator: Allocator<N, N>,
+{
+    if run_time::<N, N, N>() {
+        copy(l, a);
+        cholesky_in_place(l)
+    } else {
+        let n = a.nrows();
+        cholesky_from_body(a.as_slice(), l.as_mut_slice(), n)
+    }
+}
+
+#[inline(always)]
+fn cholesky_from_body(a: &[f64], l: &mut [f64], n: usize) -> bool {
+    // Column-major storage: L(i, k) = l[k n + i]; column j of `a` is read where the in-place
+    // form reads its not yet overwritten entries.
+    let (a, l) = (&a[..n * n], &mut l[..n * n]);
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            d -= l[k * n + j] * l[k * n + j];
+        }
+        if d.is_nan() || d <= 0.0 || d.is_infinite() {
+            return false;
+        }
+        let d = d.sqrt();
+        l[j * n + j] = d;
+        let r = 1.0 / d;
+        for i in j + 1..n {
+            let mut s = a[j * n + i];
+            for k in 0..j {
+                s -= l[k * n + i] * l[k * n + j];
+            }
+            l[j * n + i] = s * r;
+        }
+    }
+    true
+}
+
 #[inline(always)]
 fn cholesky_body(l: &mut [f64], n: usize) -> bool {
     // Column-major storage: L(i, k) = l[k n + i].
@@ -546,5 +591,28 @@ mod tests {
         assert!((&h * v - DVector::from_element(6, 1.0)).amax() < 1e-12);
         let mut indefinite = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
         assert!(!cholesky_in_place(&mut indefinite));
+    }
+
+    #[test]
+    fn cholesky_from_equals_in_place_on_the_lower_triangle() {
+        let m = Matrix::<4, 4>::from_fn(|i, j| ((i * 4 + j) as f64 * 0.53).sin());
+        let h = m * m.transpose() + Matrix::<4, 4>::identity();
+        let mut in_place = h;
+        assert!(cholesky_in_place(&mut in_place));
+        let mut from = Matrix::<4, 4>::from_element(f64::NAN);
+        assert!(cholesky_from(&h, &mut from));
+        for j in 0..4 {
+            for i in j..4 {
+                assert_eq!(from[(i, j)].to_bits(), in_place[(i, j)].to_bits(), "L({i}, {j})");
+            }
+        }
+        let dynamic = DMatrix::from_column_slice(4, 4, h.as_slice());
+        let mut l = DMatrix::zeros(4, 4);
+        assert!(cholesky_from(&dynamic, &mut l));
+        assert!((l.lower_triangle() - in_place.lower_triangle()).amax() == 0.0);
+        let indefinite = Matrix::<2, 2>::new(1.0, 2.0, 2.0, 1.0);
+        assert!(!cholesky_from(&indefinite, &mut Matrix::<2, 2>::zeros()));
+        let nan = Matrix::<2, 2>::new(f64::NAN, 0.0, 0.0, 1.0);
+        assert!(!cholesky_from(&nan, &mut Matrix::<2, 2>::zeros()));
     }
 }

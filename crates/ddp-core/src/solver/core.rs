@@ -24,7 +24,7 @@ use crate::boxqp::{box_qp, BoxQp};
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
 use crate::error::{check_finite, Error};
 use crate::kernels::{
-    add_to, cholesky_in_place, cholesky_solve_in_place, copy, mul_to, mul_vec_add, negate, sym_tr_mul2_add,
+    add_to, cholesky_from, cholesky_in_place, cholesky_solve_in_place, copy, mul_to, mul_vec_add, negate, sym_tr_mul2_add,
     sym_tr_mul_add, tr_mul_add, tr_mul_vec_add,
 };
 use crate::solver::settings::{LineSearchSettings, Method, Regularization, RegularizationSettings, Shooting};
@@ -418,8 +418,7 @@ where
     /// Factors `q_uu_r` into `chol` (lower triangle); `Err` when not positive definite.
     #[inline(always)]
     pub fn factor(&mut self) -> Result<(), NotPositiveDefinite> {
-        copy(&mut self.chol, &self.q_uu_r);
-        if cholesky_in_place(&mut self.chol) {
+        if cholesky_from(&self.q_uu_r, &mut self.chol) {
             Ok(())
         } else {
             Err(NotPositiveDefinite)

@@ -144,7 +144,10 @@ where
         w.active += mw;
         // The projected gradient Q_u + C_W^T lambda measures stationarity.
         copy(&mut w.hci, &q.q_u);
-        w.hci.gemv_tr(1.0, &w.cw, &w.lambda, 1.0);
+        if mw > 0 {
+            // (Without rows `C_W` is zero: the product adds nothing.)
+            w.hci.gemv_tr(1.0, &w.cw, &w.lambda, 1.0);
+        }
         let gradient = w.hci.norm_squared();
         copy(&mut w.q_u[k], &q.q_u);
         copy(&mut w.q_ux[k], &q.q_ux);

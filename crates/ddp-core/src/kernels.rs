@@ -384,12 +384,14 @@ pub fn cholesky_from<N: Dim>(a: &MatrixN<N, N>, l: &mut MatrixN<N, N>) -> bool
 where
     DefaultAllocator: Allocator<N, N>,
 {
+    let n = a.nrows();
+    let (a, l) = (a.as_slice(), l.as_mut_slice());
     if run_time::<N, N, N>() {
-        copy(l, a);
-        cholesky_in_place(l)
+        let mut ok = false;
+        small(CholeskyFromK { a, l, ok: &mut ok }, n, 1, 1);
+        ok
     } else {
-        let n = a.nrows();
-        cholesky_from_body(a.as_slice(), l.as_mut_slice(), n)
+        cholesky_from_body(a, l, n)
     }
 }
 
@@ -526,6 +528,24 @@ impl Kernel for CholeskyK<'_> {
     }
 }
 
+/// [`cholesky_from`] as a [`Kernel`] (its result through `ok`).
+struct CholeskyFromK<'a> {
+    a: &'a [f64],
+    l: &'a mut [f64],
+    ok: &'a mut bool,
+}
+
+impl Kernel for CholeskyFromK<'_> {
+    #[inline(always)]
+    fn call<const A: usize, const B: usize, const C: usize>(self) {
+        *self.ok = cholesky_from_body(self.a, self.l, A);
+    }
+    #[inline(always)]
+    fn call_any(self, a: usize, _b: usize, _c: usize) {
+        *self.ok = cholesky_from_body(self.a, self.l, a);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -609,7 +629,17 @@ mod tests {
         let dynamic = DMatrix::from_column_slice(4, 4, h.as_slice());
         let mut l = DMatrix::zeros(4, 4);
         assert!(cholesky_from(&dynamic, &mut l));
-        assert!((l.lower_triangle() - in_place.lower_triangle()).amax() == 0.0);
+        for j in 0..4 {
+            for i in j..4 {
+                assert_eq!(l[(i, j)].to_bits(), in_place[(i, j)].to_bits(), "run-time L({i}, {j})");
+            }
+        }
+        // Past the sizes `small` unrolls (1-4, 6): the run-time loops.
+        let m7 = DMatrix::from_fn(7, 7, |i, j| ((i * 7 + j) as f64 * 0.29).cos());
+        let h7 = &m7 * m7.transpose() + DMatrix::identity(7, 7);
+        let (mut l7, mut in_place7) = (DMatrix::zeros(7, 7), h7.clone());
+        assert!(cholesky_from(&h7, &mut l7) && cholesky_in_place(&mut in_place7));
+        assert!((l7.lower_triangle() - in_place7.lower_triangle()).amax() == 0.0);
         let indefinite = Matrix::<2, 2>::new(1.0, 2.0, 2.0, 1.0);
         assert!(!cholesky_from(&indefinite, &mut Matrix::<2, 2>::zeros()));
         let nan = Matrix::<2, 2>::new(f64::NAN, 0.0, 0.0, 1.0);

@@ -24,8 +24,8 @@ use crate::boxqp::{box_qp, BoxQp};
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
 use crate::error::{check_finite, Error};
 use crate::kernels::{
-    add_to, cholesky_from, cholesky_in_place, cholesky_solve_in_place, copy, mul_to, mul_vec_add, negate, sym_tr_mul2_add,
-    sym_tr_mul_add, tr_mul_add, tr_mul_vec_add,
+    add_to, cholesky_from, cholesky_in_place, cholesky_solve_in_place, copy, mul_to, mul_vec_add, negate,
+    sym_tr_mul2_add, sym_tr_mul_add, tr_mul_add, tr_mul_vec_add,
 };
 use crate::solver::settings::{LineSearchSettings, Method, Regularization, RegularizationSettings, Shooting};
 use crate::solver::shooting::MultipleShooting;

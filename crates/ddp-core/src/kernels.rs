@@ -368,10 +368,19 @@ where
     let l = a.as_mut_slice();
     if run_time::<N, N, N>() {
         let mut ok = false;
-        small(CholeskyK { l, ok: &mut ok }, n, 1, 1);
+        small(
+            CholeskyK {
+                a: None,
+                l,
+                ok: &mut ok,
+            },
+            n,
+            1,
+            1,
+        );
         ok
     } else {
-        cholesky_body(l, n)
+        cholesky_body(None, l, n)
     }
 }
 
@@ -388,46 +397,35 @@ where
     let (a, l) = (a.as_slice(), l.as_mut_slice());
     if run_time::<N, N, N>() {
         let mut ok = false;
-        small(CholeskyFromK { a, l, ok: &mut ok }, n, 1, 1);
+        small(
+            CholeskyK {
+                a: Some(a),
+                l,
+                ok: &mut ok,
+            },
+            n,
+            1,
+            1,
+        );
         ok
     } else {
-        cholesky_from_body(a, l, n)
+        cholesky_body(Some(a), l, n)
     }
 }
 
+/// The factorisation's loops: of `l` in place (`a = None`), or into `l` from `a`, whose entries
+/// are read where the in-place form reads the not yet overwritten ones (the match on `a` folds
+/// away where the call is inlined).
 #[inline(always)]
-fn cholesky_from_body(a: &[f64], l: &mut [f64], n: usize) -> bool {
-    // Column-major storage: L(i, k) = l[k n + i]; column j of `a` is read where the in-place
-    // form reads its not yet overwritten entries.
-    let (a, l) = (&a[..n * n], &mut l[..n * n]);
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= l[k * n + j] * l[k * n + j];
-        }
-        if d.is_nan() || d <= 0.0 || d.is_infinite() {
-            return false;
-        }
-        let d = d.sqrt();
-        l[j * n + j] = d;
-        let r = 1.0 / d;
-        for i in j + 1..n {
-            let mut s = a[j * n + i];
-            for k in 0..j {
-                s -= l[k * n + i] * l[k * n + j];
-            }
-            l[j * n + i] = s * r;
-        }
-    }
-    true
-}
-
-#[inline(always)]
-fn cholesky_body(l: &mut [f64], n: usize) -> bool {
+fn cholesky_body(a: Option<&[f64]>, l: &mut [f64], n: usize) -> bool {
     // Column-major storage: L(i, k) = l[k n + i].
     let l = &mut l[..n * n];
+    let a = a.map(|a| &a[..n * n]);
     for j in 0..n {
-        let mut d = l[j * n + j];
+        let mut d = match a {
+            Some(a) => a[j * n + j],
+            None => l[j * n + j],
+        };
         for k in 0..j {
             d -= l[k * n + j] * l[k * n + j];
         }
@@ -439,7 +437,10 @@ fn cholesky_body(l: &mut [f64], n: usize) -> bool {
         l[j * n + j] = d;
         let r = 1.0 / d;
         for i in j + 1..n {
-            let mut s = l[j * n + i];
+            let mut s = match a {
+                Some(a) => a[j * n + i],
+                None => l[j * n + i],
+            };
             for k in 0..j {
                 s -= l[k * n + i] * l[k * n + j];
             }
@@ -511,8 +512,9 @@ kernel!(SymTrMulAdd<'a> { o: &'a mut [f64], c: &'a [f64], a: &'a [f64], b: &'a [
 kernel!(SymTrMul2Add<'a> { o: &'a mut [f64], c: &'a [f64], m: [&'a [f64]; 4] } => sym_tr_mul2_add_body(2));
 kernel!(CholeskySolve<'a> { l: &'a [f64], b: &'a mut [f64] } => cholesky_solve_body(2));
 
-/// The Cholesky factorisation as a [`Kernel`] (its result through `ok`).
+/// The Cholesky factorisation as a [`Kernel`] (in place, or from `a`; its result through `ok`).
 struct CholeskyK<'a> {
+    a: Option<&'a [f64]>,
     l: &'a mut [f64],
     ok: &'a mut bool,
 }
@@ -520,29 +522,11 @@ struct CholeskyK<'a> {
 impl Kernel for CholeskyK<'_> {
     #[inline(always)]
     fn call<const A: usize, const B: usize, const C: usize>(self) {
-        *self.ok = cholesky_body(self.l, A);
+        *self.ok = cholesky_body(self.a, self.l, A);
     }
     #[inline(always)]
     fn call_any(self, a: usize, _b: usize, _c: usize) {
-        *self.ok = cholesky_body(self.l, a);
-    }
-}
-
-/// [`cholesky_from`] as a [`Kernel`] (its result through `ok`).
-struct CholeskyFromK<'a> {
-    a: &'a [f64],
-    l: &'a mut [f64],
-    ok: &'a mut bool,
-}
-
-impl Kernel for CholeskyFromK<'_> {
-    #[inline(always)]
-    fn call<const A: usize, const B: usize, const C: usize>(self) {
-        *self.ok = cholesky_from_body(self.a, self.l, A);
-    }
-    #[inline(always)]
-    fn call_any(self, a: usize, _b: usize, _c: usize) {
-        *self.ok = cholesky_from_body(self.a, self.l, a);
+        *self.ok = cholesky_body(self.a, self.l, a);
     }
 }
 

@@ -671,6 +671,44 @@ impl MuSchedule {
         self.mu = f64::max(s.mu_min, self.mu * self.dmu);
         self.mu <= s.mu_max
     }
+    /// Runs `pass` (one backward pass, counted in `passes`) with `mu` raised along the schedule
+    /// until it succeeds; `false` past `mu_max`. Full DDP retries each failed plain pass with
+    /// the second-order terms gated ([`backward_pass`]) until a gated pass has failed too: that
+    /// failure came from the Gauss-Newton blocks themselves, which only a larger `mu` mends, so
+    /// the larger values get the plain pass alone (a gated retry there fails as well where the
+    /// plain one does, in all but rare cases, and would double every retry's cost; the first
+    /// plain pass that succeeds is the one the full retries would have taken).
+    pub fn until_definite(
+        &mut self,
+        s: &RegularizationSettings,
+        method: Method,
+        passes: &mut usize,
+        mut pass: impl FnMut(BackwardOptions) -> Result<(), NotPositiveDefinite>,
+    ) -> bool {
+        let mut gate = method == Method::Ddp;
+        loop {
+            let mut opts = BackwardOptions {
+                mu: self.mu,
+                placement: s.placement,
+                method,
+                gated: false,
+            };
+            *passes += 1;
+            let mut result = pass(opts);
+            if result.is_err() && gate {
+                opts.gated = true;
+                *passes += 1;
+                result = pass(opts);
+                gate = result.is_ok();
+            }
+            if result.is_ok() {
+                return true;
+            }
+            if !self.raise(s) {
+                return false;
+            }
+        }
+    }
     /// `Delta <- min(Delta / Delta_0, 1 / Delta_0)`, `mu <- mu Delta` (0 below `mu_min`).
     pub fn lower(&mut self, s: &RegularizationSettings) {
         self.dmu = f64::min(self.dmu / s.mu_factor, 1.0 / s.mu_factor);

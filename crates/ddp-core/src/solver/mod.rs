@@ -290,32 +290,18 @@ where
         self.log(0, 0.0, true);
     }
 
-    /// The backward pass, raising `mu` until `Q_uu` is positive definite (full DDP first
-    /// retries with the second-order terms gated, see [`backward_pass`]); then the stopping test.
+    /// The backward pass, raising `mu` until `Q_uu` is positive definite (full DDP retries with
+    /// the second-order terms gated, see [`MuSchedule::until_definite`]); then the stopping test.
     fn compute_direction(&mut self, problem: &Problem<NX, NU>) -> Direction {
         let s = self.settings;
-        loop {
-            let mut opts = BackwardOptions {
-                mu: self.core.reg.mu,
-                placement: s.regularization.placement,
-                method: s.method,
-                gated: false,
-            };
-            self.report.backward_passes += 1;
-            let mut result = self.backward_with(problem, opts);
-            if result.is_err() && s.method == Method::Ddp {
-                opts.gated = true;
-                self.report.backward_passes += 1;
-                result = self.backward_with(problem, opts);
-            }
-            match result {
-                Ok(()) => break,
-                Err(NotPositiveDefinite) => {
-                    if !self.core.reg.raise(&s.regularization) {
-                        return Direction::Failed(Status::RegularizationLimit);
-                    }
-                }
-            }
+        let (mut reg, mut passes) = (self.core.reg, 0);
+        let ok = reg.until_definite(&s.regularization, s.method, &mut passes, |opts| {
+            self.backward_with(problem, opts)
+        });
+        self.core.reg = reg;
+        self.report.backward_passes += passes;
+        if !ok {
+            return Direction::Failed(Status::RegularizationLimit);
         }
         if self.stopping_criteria(problem) {
             Direction::Stationary

@@ -920,39 +920,22 @@ where
         }
     }
 
-    /// The backward pass with the KKT gains, raising `mu` until it succeeds.
+    /// The backward pass with the KKT gains, raising `mu` until it succeeds (full DDP retries
+    /// with the second-order terms gated, as `ddp-core`'s solver does:
+    /// [`ddp_core::solver::MuSchedule::until_definite`]).
     fn compute_direction(&mut self, problem: &Problem<NX, NU>) -> std::result::Result<(), Status> {
-        loop {
-            self.report.backward_passes += 1;
-            if self.backward_with(problem, self.core.reg.mu).is_ok() {
-                return Ok(());
-            }
-            if !self.core.reg.raise(&self.settings.regularization) {
-                return Err(Status::RegularizationLimit);
-            }
-        }
-    }
-
-    /// The core's backward pass with the KKT gains of this phase (full DDP first retries with
-    /// the second-order terms gated, as `ddp-core`'s solver does).
-    fn backward_with(
-        &mut self,
-        problem: &Problem<NX, NU>,
-        mu: f64,
-    ) -> std::result::Result<(), ddp_core::solver::NotPositiveDefinite> {
         let s = self.settings;
-        let opts = BackwardOptions {
-            mu,
-            placement: s.regularization.placement,
-            method: s.method,
-            gated: false,
-        };
-        let mut result = self.kkt_backward(problem, opts);
-        if result.is_err() && s.method == ddp_core::Method::Ddp {
-            self.report.backward_passes += 1;
-            result = self.kkt_backward(problem, BackwardOptions { gated: true, ..opts });
+        let (mut reg, mut passes) = (self.core.reg, 0);
+        let ok = reg.until_definite(&s.regularization, s.method, &mut passes, |opts| {
+            self.kkt_backward(problem, opts)
+        });
+        self.core.reg = reg;
+        self.report.backward_passes += passes;
+        if ok {
+            Ok(())
+        } else {
+            Err(Status::RegularizationLimit)
         }
-        result
     }
 
     fn kkt_backward(
@@ -1190,7 +1173,20 @@ where
     /// was not positive definite at some knot.
     pub fn backward(&mut self, problem: &Problem<NX, NU>, mu: f64) -> Result<bool> {
         self.check_problem(problem)?;
-        Ok(self.backward_with(problem, mu).is_ok())
+        let s = self.settings;
+        let opts = BackwardOptions {
+            mu,
+            placement: s.regularization.placement,
+            method: s.method,
+            gated: false,
+        };
+        // Full DDP retries a failed pass with the second-order terms gated, as a solve does.
+        let ddp = s.method == ddp_core::Method::Ddp;
+        Ok(self.kkt_backward(problem, opts).is_ok()
+            || (ddp
+                && self
+                    .kkt_backward(problem, BackwardOptions { gated: true, ..opts })
+                    .is_ok()))
     }
 
     /// Phase 3: the forward pass with step `alpha` (into scratch buffers, leaving the trajectory

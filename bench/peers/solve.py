@@ -90,7 +90,8 @@ def costs_of(p: BenchProblem) -> tuple[ddpkit.Cost, ddpkit.Cost]:
 
 
 def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
-    """`--two-starts`, `--apart`, `--barrier-funnel`, `--hard-barrier` and `--portfolio-threads`:
+    """`--two-starts`, `--apart`, `--barrier-funnel`, `--hard-barrier`, `--no-new-side` and
+    `--portfolio-threads`:
     the `SafeCddpSolver` options the peer benchmarks expose (read back with `safe_options_of`)."""
     ap.add_argument(
         "--two-starts",
@@ -120,6 +121,12 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "the hard barrier starts of the default before the soft barrier (2026-12-05)",
     )
     ap.add_argument(
+        "--no-new-side",
+        action="store_true",
+        help="ddpkit with SafeCddpSolver(portfolio_new_side=None): no third start where the first two starts "
+        "agree (the default before 2026-12-05, night)",
+    )
+    ap.add_argument(
         "--portfolio-threads",
         type=int,
         default=1,
@@ -137,6 +144,8 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
         options.update(barrier_mu_init=3e-3, barrier_relaxation=1e-6, portfolio_third_mu=0.03)
     if args.two_starts:
         options.update(portfolio_third_mu=None, portfolio_polish=False)
+    if args.no_new_side:
+        options["portfolio_new_side"] = None
     if args.apart is not None:
         options["portfolio_apart"] = args.apart
     if args.barrier_funnel is not None:

@@ -809,6 +809,7 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("qp_method", qp_name(s.qp_method))?;
     d.set_item("warm_up", s.warm_up.as_str())?;
     d.set_item("portfolio_polish", s.portfolio_polish)?;
+    d.set_item("portfolio_new_side", s.portfolio_new_side)?;
     d.set_item("portfolio_threads", s.portfolio_threads)?;
     d.set_item("portfolio_third_mu", s.portfolio_third_mu)?;
     d.set_item("portfolio_apart", s.portfolio_apart)?;
@@ -842,6 +843,7 @@ fn settings_from(
     qp_method: &str,
     warm_up: &str,
     portfolio_polish: bool,
+    portfolio_new_side: Option<f64>,
     portfolio_threads: i64,
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
@@ -890,6 +892,7 @@ fn settings_from(
         qp_method,
         warm_up,
         portfolio_polish,
+        portfolio_new_side,
         portfolio_threads,
         portfolio_third_mu,
         portfolio_apart,
@@ -1105,6 +1108,7 @@ impl SafeCddpSolver {
                         qp_method = qp_name(Settings::default().qp_method),
                         warm_up = Settings::default().warm_up.as_str(),
                         portfolio_polish = Settings::default().portfolio_polish,
+                        portfolio_new_side = Settings::default().portfolio_new_side,
                         portfolio_threads = Settings::default().portfolio_threads as i64,
                         portfolio_third_mu = Settings::default().portfolio_third_mu,
                         portfolio_apart = Settings::default().portfolio_apart,
@@ -1116,7 +1120,7 @@ impl SafeCddpSolver {
     #[pyo3(
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
-                             portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.003, \
+                             portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
                              portfolio_apart=0.001, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
     )]
@@ -1131,6 +1135,7 @@ impl SafeCddpSolver {
         qp_method: &str,
         warm_up: &str,
         portfolio_polish: bool,
+        portfolio_new_side: Option<f64>,
         #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
         portfolio_third_mu: Option<f64>,
         portfolio_apart: f64,
@@ -1147,6 +1152,7 @@ impl SafeCddpSolver {
             qp_method,
             warm_up,
             portfolio_polish,
+            portfolio_new_side,
             portfolio_threads,
             portfolio_third_mu,
             portfolio_apart,
@@ -1591,6 +1597,7 @@ impl Mpc {
             qp_name(d.qp_method),
             d.warm_up.as_str(),
             d.portfolio_polish,
+            d.portfolio_new_side,
             d.portfolio_threads as i64,
             d.portfolio_third_mu,
             d.portfolio_apart,
@@ -1896,6 +1903,7 @@ where
                     qp_method = qp_name(Settings::default().qp_method),
                     warm_up = Settings::default().warm_up.as_str(),
                     portfolio_polish = Settings::default().portfolio_polish,
+                    portfolio_new_side = Settings::default().portfolio_new_side,
                     portfolio_threads = Settings::default().portfolio_threads as i64,
                     portfolio_third_mu = Settings::default().portfolio_third_mu,
                     portfolio_apart = Settings::default().portfolio_apart,
@@ -1906,7 +1914,7 @@ where
 #[pyo3(
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
-                             portfolio_polish=True, portfolio_threads=1, portfolio_third_mu=0.003, \
+                             portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
                              portfolio_apart=0.001, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
 )]
@@ -1923,6 +1931,7 @@ fn solve_batch_safe(
     qp_method: &str,
     warm_up: &str,
     portfolio_polish: bool,
+    portfolio_new_side: Option<f64>,
     #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
@@ -1938,6 +1947,7 @@ fn solve_batch_safe(
         qp_method,
         warm_up,
         portfolio_polish,
+        portfolio_new_side,
         portfolio_threads,
         portfolio_third_mu,
         portfolio_apart,

@@ -158,3 +158,32 @@ def test_the_hard_barrier_option_gives_the_earlier_starts() -> None:
     # round as well (below IPOPT's optimum, as the default).
     rule = solve.DdpkitSolver(p, safe_options=options).solve()
     assert rule.status == "converged" and rule.cost <= ipopt * (1 + 1e-6)
+
+
+def test_where_the_first_two_agree_a_third_start_on_another_side_escapes_their_optimum() -> None:
+    # car-s1-i22-a0 (bench/results/family_s1_210_funnel.json): the portfolio's first two starts
+    # agree on an optimum 2.6x IPOPT's; with `portfolio_new_side` (the default, 1.2) the third
+    # start's homotopy ends on another side of the obstacles, goes on and ends below IPOPT's.
+    import pickle
+
+    import ddpkit
+    import solve
+
+    assert ddpkit.default_settings("SafeCddpSolver")["portfolio_new_side"] == 1.2
+    spec = family.generate("car", 1, 22)
+    assert spec["name"] == "car-s1-i22-a0"
+    p = parse(spec)
+    ipopt = 0.47750011380348567
+    off = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "1", "--no-new-side"]))
+    assert off["portfolio_new_side"] is None
+    before = solve.DdpkitSolver(p, safe_options=off).solve()
+    after = solve.DdpkitSolver(p, safe_options={}).solve()
+    assert before.max_violation <= 1e-6 and after.max_violation <= 1e-6
+    assert before.cost > 2 * ipopt
+    assert after.status == "converged" and after.cost <= ipopt * (1 + 1e-6)
+    # The setting pickles with the solver; a bad factor is an error naming it.
+    solver = solve.DdpkitSolver(p, safe_options={"portfolio_new_side": None}).constrained
+    again = pickle.loads(pickle.dumps(solver))
+    assert again == solver
+    with pytest.raises(ValueError, match="portfolio_new_side"):
+        solve.DdpkitSolver(p, safe_options={"portfolio_new_side": -1.0})

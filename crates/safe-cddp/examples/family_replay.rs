@@ -73,6 +73,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // 0: no third start.
         s.portfolio_third_mu = (v > 0.0).then_some(v);
     }
+    if let Some(v) = env("NEW_SIDE") {
+        // 0: none.
+        s.portfolio_new_side = (v > 0.0).then_some(v);
+    }
     if let Some(v) = env("APART") {
         s.portfolio_apart = v;
     }

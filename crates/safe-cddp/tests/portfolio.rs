@@ -26,6 +26,7 @@ fn hard_barrier() -> Settings {
         portfolio_third_mu: Some(3e-2),
         al_inner_progress: 0.0,
         al_near_margin: 0.0,
+        portfolio_new_side: None,
         ..Settings::default()
     }
 }
@@ -132,12 +133,17 @@ fn the_extra_starts_run_only_where_the_first_two_end_apart() {
     // the barrier start stalls at 900x the other's cost: neither is apart, and the default
     // portfolio is the two-start one there, bit for bit. With `portfolio_apart = 0` the third
     // start and the polish run and cannot end worse.
-    // The same holds with the default's soft barrier.
+    // The same holds with the default's soft barrier (without the third start on another side
+    // where the first two agree, `where_the_first_two_agree_...` below).
+    let soft = Settings {
+        portfolio_new_side: None,
+        ..Settings::default()
+    };
     for (file, base) in [
         ("p3_point4.json", hard_barrier()),
         ("p2_car4.json", hard_barrier()),
-        ("p3_point4.json", Settings::default()),
-        ("p2_car4.json", Settings::default()),
+        ("p3_point4.json", soft),
+        ("p2_car4.json", soft),
     ] {
         let json = std::fs::read_to_string(format!("../../bench/problems/{file}")).unwrap();
         let two = solve_json(
@@ -173,6 +179,50 @@ fn the_extra_starts_run_only_where_the_first_two_end_apart() {
         ..hard_barrier()
     });
     assert_eq!(wide.4, solve(two_starts()).4);
+}
+
+/// Problem 22 of the car family, seed 1 (`bench/results/family_s1_210_funnel.json`): the first two
+/// starts agree on an optimum 2.6x IPOPT's (0.47750); the third start, its barrier homotopy
+/// ending on another side of the obstacles, goes on and finds one below IPOPT's.
+const CAR_S1_I22: &str = r#"{"name": "car-s1-i22-a0", "model": "car", "dt": 0.0764, "N": 159, "x0": [0.0, 0.0, -2.3306, 0.0], "cost": {"kind": "quad_goal", "x_goal": [-1.7779, -2.1419, -2.0659, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[-0.5669, -0.2952, 0.4401], [-1.1398, -1.5126, 0.4451], [-1.3598, -1.1623, 0.3852]]}"#;
+const IPOPT_I22: f64 = 0.47750011380348567;
+/// Problem 12 of the car family, seed 1: the first two starts agree on a cost above 1.2x the
+/// relaxed one, and the third start's homotopy ends on their side of the one obstacle.
+const CAR_S1_I12: &str = r#"{"name": "car-s1-i12-a0", "model": "car", "dt": 0.0547, "N": 80, "x0": [0.0, 0.0, 1.0632, 0.0], "cost": {"kind": "quad_goal", "x_goal": [2.5455, 2.0702, 0.8993, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[1.9699, 1.6277, 0.2944]]}"#;
+
+#[test]
+fn where_the_first_two_agree_a_third_start_on_another_side_escapes_their_optimum() {
+    let off = Settings {
+        portfolio_new_side: None,
+        ..Settings::default()
+    };
+    let (before, after) = (solve_json(CAR_S1_I22, off), solve_json(CAR_S1_I22, Settings::default()));
+    assert_eq!((before.status, after.status), (Status::Converged, Status::Converged));
+    assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
+    assert!(before.cost > 2.0 * IPOPT_I22, "without: {}", before.cost);
+    assert!(after.cost <= IPOPT_I22 * (1.0 + 1e-6), "with: {}", after.cost);
+    // On the kept solution's side the third start stops where its homotopy ends: the solution
+    // is the one without it, bit for bit, for a few discarded iterations (one barrier
+    // subproblem of at most `barrier_inner_iterations`).
+    let (before, after) = (solve_json(CAR_S1_I12, off), solve_json(CAR_S1_I12, Settings::default()));
+    assert_eq!(before.cost.to_bits(), after.cost.to_bits());
+    assert_eq!(before.iterations, after.iterations);
+    let extra = after.discarded_iterations - before.discarded_iterations;
+    assert!(extra > 0 && extra <= off.barrier_inner_iterations, "{extra}");
+    // Only the portfolio reads it.
+    let barrier = Settings {
+        warm_up: WarmUp::Barrier,
+        ..Settings::default()
+    };
+    let a = solve_json(CAR_S1_I22, barrier);
+    let b = solve_json(
+        CAR_S1_I22,
+        Settings {
+            portfolio_new_side: None,
+            ..barrier
+        },
+    );
+    assert_eq!((a.cost.to_bits(), a.iterations), (b.cost.to_bits(), b.iterations));
 }
 
 /// Problem 10 of the car family, seed 1: the portfolio keeps the augmented Lagrangian's own

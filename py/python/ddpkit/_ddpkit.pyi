@@ -758,6 +758,7 @@ def solve_batch_safe(
     qp_method: str = "fast",
     warm_up: str = "portfolio",
     portfolio_polish: bool = True,
+    portfolio_new_side: Optional[float] = 1.2,
     portfolio_threads: int = 1,
     portfolio_third_mu: Optional[float] = 0.003,
     portfolio_apart: float = 1e-3,
@@ -1372,6 +1373,12 @@ class SafeCddpSolver:
     Lagrangian's own, one more start from it with cold multipliers), each kept when better: the
     benchmark family's optima on 92 % of problems instead of 89 %, for about 1.3x the
     iterations (``portfolio_third_mu=None, portfolio_polish=False`` for the two starts alone).
+    Where the first two agree on a cost above ``portfolio_new_side`` times the augmented
+    Lagrangian's after its first inner solve (a relaxation that may still cut through the
+    obstacles), the third start still runs its barrier homotopy, and goes on only when it passes
+    some obstacle on another side than the kept solution (the unit gradient of a state row at
+    its most active state more than 90 degrees from the kept solution's): two starts that agree
+    can share a poor optimum (``None``: no third start there).
     ``portfolio_threads``: 1, or 2 to run the portfolio's first two starts at once on two
     threads (the same solution and iterations, less wall time). ``barrier_funnel`` (``None``: no
     limit): after the barrier hands over, the augmented Lagrangian's trial steps may not pass
@@ -1400,6 +1407,8 @@ class SafeCddpSolver:
         qp_method: str = "fast",
         warm_up: str = "portfolio",
         portfolio_polish: bool = True,
+        portfolio_new_side: Optional[float] = 1.2,
+    portfolio_new_side: Optional[float] = 1.2,
         portfolio_threads: int = 1,
         portfolio_third_mu: Optional[float] = 0.003,
         portfolio_apart: float = 1e-3,

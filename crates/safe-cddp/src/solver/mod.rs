@@ -60,6 +60,7 @@
 
 mod forward;
 mod rows;
+mod sides;
 mod tighten;
 mod warm_up;
 mod working_set;
@@ -73,6 +74,7 @@ use ddp_core::{Error, Problem, Result};
 
 use self::forward::{Forward, ForwardQp};
 use self::rows::{Merit, Rows, Slot, Violation};
+use self::sides::Sides;
 use self::tighten::Stochastic;
 use self::warm_up::WarmUpState;
 use self::working_set::{Kkt, KktGains};
@@ -186,6 +188,16 @@ where
     /// (built at the first such solve, and again when the settings, constraints or horizon
     /// change).
     sibling: Option<Box<SafeCddpSolver<NX, NU>>>,
+    /// The kept solution's and the running start's sides ([`Settings::portfolio_new_side`]).
+    sides: Sides<NX, NU>,
+    /// The running start stops at the end of its homotopy if it is on the kept solution's sides.
+    side_test: bool,
+    /// The running start stopped there.
+    same_side: bool,
+    /// The cost at the end of the augmented-Lagrangian start's first inner solve (zero
+    /// multipliers, the initial penalty): a relaxation in which the path may still cut through
+    /// the obstacles (`NaN` until then).
+    pub(super) relaxed_cost: f64,
 }
 
 impl<NX: Dim, NU: Dim> std::fmt::Debug for SafeCddpSolver<NX, NU>
@@ -249,6 +261,7 @@ where
         cap: usize,
     ) -> Result<Self> {
         let dims = problem.dims();
+        let max_dim = slots.iter().map(|s| s.dim).max().unwrap_or(0);
         let rows = Rows::new(dims, slots, cap);
         let m = rows.m;
         Ok(Self {
@@ -281,6 +294,10 @@ where
                 mu_init: None,
                 best_in_warm_up: false,
                 sibling: None,
+                sides: Sides::new(dims, max_dim),
+                side_test: false,
+                same_side: false,
+                relaxed_cost: f64::NAN,
             },
         })
     }
@@ -579,6 +596,9 @@ where
         if concurrent {
             self.prepare_sibling(problem)?;
         }
+        let new_side = self.settings.portfolio_new_side;
+        self.portfolio.sides.kept_valid = false;
+        self.portfolio.relaxed_cost = f64::NAN;
         for (i, member) in guesses.into_iter().chain(third).chain(polish).enumerate() {
             if concurrent && i == 1 {
                 // The second start ran on the sibling, alongside the first: its whole end state
@@ -587,11 +607,18 @@ where
                 self.swap_state(&mut sib);
                 self.portfolio.sibling = Some(sib);
             } else {
-                // The third start and the polish only where the first two ended apart.
+                // The third start and the polish only where the first two ended apart; where they
+                // agree, the third start only until its homotopy ends on the kept solution's
+                // sides (`Settings::portfolio_new_side`).
+                let mut side_test = false;
                 if i >= 2 && !*apart.get_or_insert_with(|| self.starts_apart(tol)) {
-                    continue;
+                    if !(i == 2 && member.is_some() && self.kept_is_poor()) {
+                        continue;
+                    }
+                    side_test = true;
                 }
                 let p = &mut self.portfolio;
+                p.side_test = side_test;
                 match member {
                     Some((warm_up, mu)) => {
                         self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
@@ -615,6 +642,13 @@ where
                 }
             }
             let p = &mut self.portfolio;
+            p.side_test = false;
+            if std::mem::take(&mut p.same_side) {
+                discarded += self.report.iterations;
+                discarded_qps += self.report.qp;
+                live_is_best = false;
+                continue;
+            }
             // On a tie the later start is kept.
             let keep_new = i == 0 || !better(&p.report, &self.report, tol);
             if !keep_new {
@@ -638,6 +672,9 @@ where
             std::mem::swap(&mut self.report, &mut p.report);
             p.best_in_warm_up = self.it.accepted_in_warm_up;
             live_is_best = true;
+            if new_side.is_some() {
+                self.measure_sides(true);
+            }
         }
         let p = &mut self.portfolio;
         std::mem::swap(&mut self.report, &mut p.report);
@@ -746,6 +783,32 @@ where
         }
     }
 
+    /// [`Settings::portfolio_new_side`]: whether the kept solution's cost is above that factor
+    /// times the augmented-Lagrangian start's relaxed cost (or that cost is unknown), so that a
+    /// third start may look for a cheaper way around the obstacles.
+    fn kept_is_poor(&self) -> bool {
+        let p = &self.portfolio;
+        self.settings
+            .portfolio_new_side
+            .is_some_and(|factor| !(p.report.cost <= factor * p.relaxed_cost))
+    }
+
+    /// Whether the current trajectory passes every state constraint on the kept solution's side
+    /// ([`Settings::portfolio_new_side`]).
+    fn on_kept_sides(&mut self) -> bool {
+        self.measure_sides(false);
+        self.portfolio.sides.same_as_kept(self.dims().nx())
+    }
+
+    /// The sides of the current trajectory into the portfolio's `kept` (or `now`).
+    fn measure_sides(&mut self, into_kept: bool) {
+        let n = self.core.n;
+        let (c, slots, xs) = (&self.constraints, &self.rows.slots, &self.core.traj.xs);
+        self.portfolio
+            .sides
+            .measure(c, slots, xs, &self.rows.zero_u, n, into_kept);
+    }
+
     /// The largest violation of the initial guess (projected onto the bounds, rolled out).
     fn initial_violation(&mut self, problem: &Problem<NX, NU>) -> Result<f64> {
         self.check_problem(problem)?;
@@ -780,6 +843,12 @@ where
                 }
                 if let Some(last) = self.report.log.last_mut() {
                     last.tightened = tightened;
+                }
+                // The third start where the first two agree goes on past the end of its homotopy
+                // only on another side (`Settings::portfolio_new_side`).
+                if std::mem::take(&mut self.warm.homotopy_ended) && self.portfolio.side_test && self.on_kept_sides() {
+                    self.portfolio.same_side = true;
+                    break;
                 }
                 match outcome {
                     IterationOutcome::Failed(s) => {
@@ -876,6 +945,7 @@ where
         self.warm.inner = 0;
         self.warm.kkt_failed = false;
         self.warm.handed_over = false;
+        self.warm.homotopy_ended = false;
         self.refresh_merit();
         self.core.reg.reset(&s.regularization);
         self.it.trust = s.trust_region;

@@ -61,6 +61,9 @@ pub(crate) struct WarmUpState {
     /// violated rows ([`crate::Settings::barrier_funnel`] after a barrier hand-over, else
     /// infinite).
     pub funnel: f64,
+    /// The barrier homotopy has just ended (set by its last `mu` update, taken by the solve
+    /// loop: [`crate::Settings::portfolio_new_side`]).
+    pub homotopy_ended: bool,
 }
 
 impl WarmUpState {
@@ -80,6 +83,7 @@ impl WarmUpState {
             handed_over: false,
             cold: true,
             funnel: f64::INFINITY,
+            homotopy_ended: false,
         }
     }
 }
@@ -130,6 +134,9 @@ where
         if self.warm.barrier {
             self.lower_barrier();
             return false;
+        }
+        if self.portfolio.member == Some(crate::WarmUp::AugmentedLagrangian) && self.portfolio.relaxed_cost.is_nan() {
+            self.portfolio.relaxed_cost = self.core.cost;
         }
         let s = self.settings;
         let w = &mut self.warm;
@@ -198,6 +205,7 @@ where
             w.barrier = false;
             w.prev_violation = f64::INFINITY;
             w.funnel = s.barrier_funnel;
+            w.homotopy_ended = true;
         }
         self.refresh_merit();
         self.it.need_linearize = true;

@@ -117,8 +117,8 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument(
         "--hard-barrier",
         action="store_true",
-        help="ddpkit with SafeCddpSolver(barrier_mu_init=3e-3, barrier_relaxation=1e-6, portfolio_third_mu=0.03): "
-        "the hard barrier starts of the default before the soft barrier (2026-12-05)",
+        help="ddpkit with SafeCddpSolver(barrier_mu_init=3e-3, barrier_relaxation=1e-6, portfolio_third_mu=0.03, "
+        "portfolio_new_side=None): the hard barrier starts of the default before the soft barrier (2026-12-05)",
     )
     ap.add_argument(
         "--no-new-side",
@@ -141,7 +141,7 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
     others keep the library's defaults)."""
     options: dict[str, Any] = {"portfolio_threads": args.portfolio_threads}
     if args.hard_barrier:
-        options.update(barrier_mu_init=3e-3, barrier_relaxation=1e-6, portfolio_third_mu=0.03)
+        options.update(barrier_mu_init=3e-3, barrier_relaxation=1e-6, portfolio_third_mu=0.03, portfolio_new_side=None)
     if args.two_starts:
         options.update(portfolio_third_mu=None, portfolio_polish=False)
     if args.no_new_side:

@@ -143,6 +143,7 @@ def test_the_hard_barrier_option_gives_the_earlier_starts() -> None:
     args = family.build_parser().parse_args(["--problems", "3", "--seed", "6", "--hard-barrier"])
     options = solve.safe_options_of(args)
     assert (options["barrier_mu_init"], options["barrier_relaxation"], options["portfolio_third_mu"]) == (3e-3, 1e-6, 0.03)
+    assert options["portfolio_new_side"] is None
     default = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "6"]))
     assert "barrier_mu_init" not in default and "barrier_relaxation" not in default
     spec = family.generate("point", 6, 8)

@@ -10,7 +10,8 @@
 //!
 //! Environment: `THIRD_MU=MU` sets the portfolio's third start (`Settings::portfolio_third_mu`;
 //! 0: none), `POLISH=0|1` its polish (`Settings::portfolio_polish`), `APART=GAP` when they run
-//! (`Settings::portfolio_apart`), `THREADS=2` its concurrent starts
+//! (`Settings::portfolio_apart`), `NEW_SIDE=F` the third start where the first two agree
+//! (`Settings::portfolio_new_side`; 0: none), `THREADS=2` its concurrent starts
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
 //! the augmented Lagrangian, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'

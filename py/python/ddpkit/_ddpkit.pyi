@@ -1408,7 +1408,6 @@ class SafeCddpSolver:
         warm_up: str = "portfolio",
         portfolio_polish: bool = True,
         portfolio_new_side: Optional[float] = 1.2,
-    portfolio_new_side: Optional[float] = 1.2,
         portfolio_threads: int = 1,
         portfolio_third_mu: Optional[float] = 0.003,
         portfolio_apart: float = 1e-3,

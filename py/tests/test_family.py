@@ -185,6 +185,6 @@ def test_where_the_first_two_agree_a_third_start_on_another_side_escapes_their_o
     # The setting pickles with the solver; a bad factor is an error naming it.
     solver = solve.DdpkitSolver(p, safe_options={"portfolio_new_side": None}).constrained
     again = pickle.loads(pickle.dumps(solver))
-    assert again == solver
+    assert again == solver and again != solve.DdpkitSolver(p, safe_options={}).constrained
     with pytest.raises(ValueError, match="portfolio_new_side"):
         solve.DdpkitSolver(p, safe_options={"portfolio_new_side": -1.0})

@@ -68,7 +68,7 @@ fn full_ddp_stops_gating_once_a_gated_pass_failed() {
 }
 
 #[test]
-fn full_ddp_keeps_gating_while_the_gated_passes_succeed() {
+fn every_call_gates_again_after_a_gated_success() {
     // A first gated success leaves gating on for this direction only: a fresh call starts again
     // with both passes.
     let s = RegularizationSettings::default();

@@ -262,6 +262,7 @@ where
     ) -> Result<Self> {
         let dims = problem.dims();
         let max_dim = slots.iter().map(|s| s.dim).max().unwrap_or(0);
+        let state_rows = slots.iter().filter(|s| !s.mixed).map(|s| s.dim).sum();
         let rows = Rows::new(dims, slots, cap);
         let m = rows.m;
         Ok(Self {
@@ -294,7 +295,7 @@ where
                 mu_init: None,
                 best_in_warm_up: false,
                 sibling: None,
-                sides: Sides::new(dims, max_dim),
+                sides: Sides::new(dims, max_dim, state_rows),
                 side_test: false,
                 same_side: false,
                 relaxed_cost: f64::NAN,

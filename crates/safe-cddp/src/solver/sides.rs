@@ -17,7 +17,8 @@ use ddp_core::dims::{Alloc, DefaultAllocator, Dim, Dims, VectorN};
 use super::rows::Slot;
 use crate::Constraint;
 
-/// Scratch and results of [`Sides::measure`] (sized at construction; the results grow once).
+/// Scratch and results of [`Sides::measure`], all sized at construction (a solve allocates
+/// nothing for them).
 #[derive(Debug, Clone)]
 pub(crate) struct Sides<NX: Dim, NU: Dim>
 where
@@ -39,15 +40,17 @@ impl<NX: Dim, NU: Dim> Sides<NX, NU>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    pub fn new(dims: Dims<NX, NU>, max_dim: usize) -> Self {
+    /// For constraints of at most `max_dim` rows, `state_rows` rows of state-only constraints.
+    pub fn new(dims: Dims<NX, NU>, max_dim: usize, state_rows: usize) -> Self {
+        let len = state_rows * dims.nx();
         Self {
             g: vec![0.0; max_dim],
             gx: vec![dims.x_zeros(); max_dim],
             gu: vec![dims.u_zeros(); max_dim],
             worst: vec![(f64::NEG_INFINITY, 1); max_dim],
-            kept: Vec::new(),
+            kept: Vec::with_capacity(len),
             kept_valid: false,
-            now: Vec::new(),
+            now: Vec::with_capacity(len),
         }
     }
 

@@ -37,6 +37,16 @@ pub fn equal_values(a: &Bound<'_, PyAny>, b: &Bound<'_, PyAny>) -> PyResult<bool
         }
         return Ok(true);
     }
+    // NaN equals NaN here (a solve that ended in a numerical error has a NaN cost).
+    if let (Ok(x), Ok(y)) = (a.extract::<f64>(), b.extract::<f64>()) {
+        if a.is_instance_of::<pyo3::types::PyFloat>()
+            && b.is_instance_of::<pyo3::types::PyFloat>()
+            && x.is_nan()
+            && y.is_nan()
+        {
+            return Ok(true);
+        }
+    }
     a.eq(b)
 }
 

@@ -1334,11 +1334,20 @@ pub struct SafeSolution {
     /// Wall time of the solve inside Rust (s).
     #[pyo3(get)]
     solve_time: f64,
+    /// The starts of a ``"portfolio"`` cold solve in the order they ran (empty otherwise), each a
+    /// dict: ``warm_up`` (``"augmented_lagrangian"``, ``"barrier"``, or ``"polish"`` for the
+    /// KKT/QP iterations from the kept solution), ``barrier_mu_init`` (the third start's initial
+    /// barrier weight, else ``None``), ``iterations``, ``cost``, ``max_violation`` (tightened
+    /// rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
+    /// on from it), ``"discarded"`` or ``"same_side"`` (stopped at the end of its homotopy on the
+    /// kept solution's sides).
+    #[pyo3(get)]
+    starts: Py<PyList>,
     table: Table,
 }
 
 /// The fields of a `SafeSolution` as pickled, in order.
-const SAFE_SOLUTION_FIELDS: [&str; 16] = [
+const SAFE_SOLUTION_FIELDS: [&str; 17] = [
     "xs",
     "us",
     "K",
@@ -1355,6 +1364,7 @@ const SAFE_SOLUTION_FIELDS: [&str; 16] = [
     "tightenings",
     "solve_time",
     "table",
+    "starts",
 ];
 
 impl SafeSolution {
@@ -1377,12 +1387,22 @@ impl SafeSolution {
             tightenings: field(d, "tightenings")?,
             solve_time: field(d, "solve_time")?,
             table: Table::Text(field(d, "table")?),
+            // Absent from the pickles of earlier versions.
+            starts: match d.get_item("starts")? {
+                Some(v) => v
+                    .cast_into::<PyList>()
+                    .map_err(|_| -> PyErr {
+                        crate::errors::invalid("state['starts']", "has the wrong type: not a list").into()
+                    })?
+                    .unbind(),
+                None => PyList::empty(d.py()).unbind(),
+            },
         })
     }
 
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        let values: [Bound<'py, PyAny>; 16] = [
+        let values: [Bound<'py, PyAny>; 17] = [
             self.xs.bind(py).clone(),
             self.us.bind(py).clone(),
             self.gains.bind(py).clone(),
@@ -1399,6 +1419,7 @@ impl SafeSolution {
             self.tightenings.into_pyobject(py)?.into_any(),
             self.solve_time.into_pyobject(py)?.into_any(),
             self.table.text().into_pyobject(py)?.into_any(),
+            self.starts.bind(py).clone().into_any(),
         ];
         for (k, v) in SAFE_SOLUTION_FIELDS.iter().zip(values) {
             d.set_item(k, v)?;
@@ -1409,6 +1430,25 @@ impl SafeSolution {
     fn from_out(py: Python<'_>, o: Out, nx: usize, nu: usize) -> PyResult<Self> {
         let n = o.n;
         let r = o.report;
+        let starts = PyList::empty(py);
+        for st in &r.starts {
+            let d = PyDict::new(py);
+            d.set_item(
+                "warm_up",
+                if st.warm_up == WarmUp::None {
+                    "polish"
+                } else {
+                    st.warm_up.as_str()
+                },
+            )?;
+            d.set_item("barrier_mu_init", st.barrier_mu_init)?;
+            d.set_item("iterations", st.iterations)?;
+            d.set_item("cost", st.cost)?;
+            d.set_item("max_violation", st.max_violation)?;
+            d.set_item("status", st.status.as_str())?;
+            d.set_item("outcome", st.outcome.as_str())?;
+            starts.append(d)?;
+        }
         Ok(Self {
             xs: rows_to_numpy(py, n + 1, nx, o.xs)?.unbind(),
             us: rows_to_numpy(py, n, nu, o.us)?.unbind(),
@@ -1425,6 +1465,7 @@ impl SafeSolution {
             max_violation_tightened: r.max_violation_tightened,
             tightenings: r.tightenings,
             solve_time: r.solve_time.as_secs_f64(),
+            starts: starts.unbind(),
             table: Table::Safe(Box::new(r)),
         })
     }

@@ -97,6 +97,37 @@ def test_the_portfolio_polish_is_selectable_never_worse_and_pickles() -> None:
     np.testing.assert_array_equal(batch[0].us, polished.us)
 
 
+def test_the_solution_lists_the_portfolio_starts_and_pickles_them() -> None:
+    import pickle
+
+    # portfolio_apart=0: on P3 the polish runs from the kept solution too.
+    always = {"portfolio_polish": True, "portfolio_third_mu": None, "portfolio_apart": 0.0}
+    sol = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), **always).solve()
+    starts = sol.starts
+    assert [s["warm_up"] for s in starts[:2]] == ["augmented_lagrangian", "barrier"]
+    assert starts[-1]["warm_up"] == "polish" and all(s["barrier_mu_init"] is None for s in starts)
+    assert {s["outcome"] for s in starts} <= {"kept", "polished", "discarded", "same_side"}
+    kept = [s for s in starts if s["outcome"] == "kept"]
+    assert len(kept) == 1 and kept[0]["cost"] == sol.cost and kept[0]["status"] == "converged"
+    # The kept start (with the one the polish went on from) makes up `iterations`, the others
+    # `discarded_iterations`.
+    on = sum(s["iterations"] for s in starts if s["outcome"] in ("kept", "polished"))
+    assert on == sol.iterations
+    assert sum(s["iterations"] for s in starts) == sol.iterations + sol.discarded_iterations
+    assert sol.table().count("\nstart ") == len(starts)
+    # The third start names its barrier weight.
+    third = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), portfolio_apart=0.0).solve().starts
+    assert third[2]["warm_up"] == "barrier" and third[2]["barrier_mu_init"] == pytest.approx(3e-3)
+    # It pickles with the solution; a single warm-up and a warm start list none.
+    again = pickle.loads(pickle.dumps(sol))
+    assert again == sol and again.starts == starts
+    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles(), warm_up="barrier")
+    assert solver.solve().starts == []
+    solver = ddpkit.SafeCddpSolver(p3_problem(), p3_obstacles())
+    first = solver.solve()
+    assert len(first.starts) >= 2 and solver.solve(us0=first.us, warm_start=True).starts == []
+
+
 def test_the_extra_starts_run_only_where_the_first_two_end_apart() -> None:
     import pickle
 

@@ -61,6 +61,6 @@ pub mod tightening;
 
 pub use constraint::{check_constraint_derivatives, Constraint, ConstraintDerivativeErrors, Constraints};
 pub use ddp_core::{Error, Result};
-pub use settings::{IterationLog, Report, Settings, Status, WarmUp};
+pub use settings::{IterationLog, Report, Settings, StartOutcome, StartReport, Status, WarmUp};
 pub use solver::{IterationOutcome, SafeCddpSolver};
 pub use tightening::{Gains, Tightening};

@@ -548,6 +548,72 @@ pub struct IterationLog {
     pub warm_up: Option<WarmUp>,
 }
 
+/// How one start of a [`WarmUp::Portfolio`] solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StartOutcome {
+    /// Its solution is the solve's.
+    Kept,
+    /// Its solution was kept until the polish ([`Settings::portfolio_polish`]) went on from it
+    /// to a better one: the polish's entry is [`StartOutcome::Kept`], and the report's
+    /// `iterations` count both.
+    Polished,
+    /// It ran to its end, and another start's solution was kept.
+    Discarded,
+    /// It stopped at the end of its homotopy on the kept solution's sides
+    /// ([`Settings::portfolio_new_side`]).
+    SameSide,
+}
+
+impl StartOutcome {
+    /// `"kept"`, `"polished"`, `"discarded"` or `"same_side"`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            StartOutcome::Kept => "kept",
+            StartOutcome::Polished => "polished",
+            StartOutcome::Discarded => "discarded",
+            StartOutcome::SameSide => "same_side",
+        }
+    }
+}
+
+/// One start of a [`WarmUp::Portfolio`] solve: which it was, how far it went and whether its
+/// solution was kept. The starts' iterations add up to the report's `iterations` (the
+/// [`StartOutcome::Kept`] and [`StartOutcome::Polished`] ones) plus its `discarded_iterations`
+/// (the others).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StartReport {
+    /// [`WarmUp::AugmentedLagrangian`] or [`WarmUp::Barrier`] from the initial guess;
+    /// [`WarmUp::None`] for the polish (the KKT/QP iterations from the kept solution).
+    pub warm_up: WarmUp,
+    /// The barrier's initial `mu` where it is not [`Settings::barrier_mu_init`] (the third start,
+    /// [`Settings::portfolio_third_mu`]).
+    pub barrier_mu_init: Option<f64>,
+    /// Accepted steps.
+    pub iterations: usize,
+    /// Cost where it ended.
+    pub cost: f64,
+    /// Largest violation of a tightened row where it ended.
+    pub max_violation: f64,
+    /// How its iterations ended.
+    pub status: Status,
+    /// Whether its solution was kept.
+    pub outcome: StartOutcome,
+}
+
+impl StartReport {
+    /// `"augmented_lagrangian"`, `"barrier"`, `"barrier (mu_init 3.0e-3)"` or `"polish"`.
+    pub fn name(&self) -> String {
+        match (self.warm_up, self.barrier_mu_init) {
+            (WarmUp::None, _) => "polish".to_string(),
+            (w, Some(mu)) => format!("{} (mu_init {mu:.1e})", w.as_str()),
+            (w, None) => w.as_str().to_string(),
+        }
+    }
+}
+
+/// Most starts of one [`WarmUp::Portfolio`] solve (two, the third and the polish).
+pub(crate) const MAX_STARTS: usize = 4;
+
 /// Outcome and statistics of a solve. Lives in the solver; `log` is allocated once.
 #[derive(Debug, Clone)]
 pub struct Report {
@@ -587,6 +653,9 @@ pub struct Report {
     pub solve_time: Duration,
     /// One row per iteration.
     pub log: Vec<IterationLog>,
+    /// The starts of a [`WarmUp::Portfolio`] cold solve, in the order they ran (empty
+    /// otherwise).
+    pub starts: Vec<StartReport>,
 }
 
 impl Report {
@@ -609,6 +678,7 @@ impl Report {
             discarded_iterations: 0,
             solve_time: Duration::ZERO,
             log: Vec::with_capacity(capacity),
+            starts: Vec::with_capacity(MAX_STARTS),
         }
     }
 
@@ -648,6 +718,18 @@ impl Report {
             self.cost,
             self.max_violation
         ));
+        for (i, st) in self.starts.iter().enumerate() {
+            s.push_str(&format!(
+                "start {}: {}, {} iterations, cost {:.9e}, violation {:.3e}, {}: {}\n",
+                i + 1,
+                st.name(),
+                st.iterations,
+                st.cost,
+                st.max_violation,
+                st.status.as_str(),
+                st.outcome.as_str()
+            ));
+        }
         s
     }
 }

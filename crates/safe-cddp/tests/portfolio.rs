@@ -5,7 +5,7 @@
 //! (`Settings::portfolio_apart`).
 
 use safe_cddp::benchmark::BenchmarkProblem;
-use safe_cddp::{SafeCddpSolver, Settings, Status, WarmUp};
+use safe_cddp::{Report, SafeCddpSolver, Settings, StartOutcome, Status, WarmUp};
 
 /// Problem 24 of the point family, seed 1 (`bench/results/family_s1_210.json`): the two default
 /// starts end 66 % above IPOPT's optimum (0.44592); the third start reaches it.
@@ -297,6 +297,83 @@ fn the_polish_never_ends_worse() {
             polished.iterations + polished.discarded_iterations > plain.iterations + plain.discarded_iterations,
             "{file}: the polish did not run"
         );
+    }
+}
+
+/// The report's starts against its totals: one kept, its iterations (with those of the start
+/// the polish went on from) the report's `iterations`, the rest its `discarded_iterations`, and
+/// the kept one's cost the report's. Returns the outcomes in order.
+fn check_starts(r: &Report) -> Vec<(WarmUp, Option<f64>, StartOutcome)> {
+    let sum = |kept: bool| {
+        r.starts
+            .iter()
+            .filter(|s| matches!(s.outcome, StartOutcome::Kept | StartOutcome::Polished) == kept)
+            .map(|s| s.iterations)
+            .sum::<usize>()
+    };
+    assert_eq!(sum(true), r.iterations, "{}", r.table());
+    assert_eq!(sum(false), r.discarded_iterations, "{}", r.table());
+    let kept: Vec<_> = r.starts.iter().filter(|s| s.outcome == StartOutcome::Kept).collect();
+    assert_eq!(kept.len(), 1, "{}", r.table());
+    assert_eq!(kept[0].cost.to_bits(), r.cost.to_bits());
+    // The polish only ever goes on from the kept solution, and is the last start.
+    let polished = r.starts.iter().filter(|s| s.outcome == StartOutcome::Polished).count();
+    assert!(polished <= 1);
+    if polished == 1 {
+        assert_eq!(r.starts.last().unwrap().warm_up, WarmUp::None);
+        assert_eq!(r.starts.last().unwrap().outcome, StartOutcome::Kept);
+    }
+    // The table names every start.
+    assert_eq!(r.table().matches("\nstart ").count(), r.starts.len());
+    r.starts
+        .iter()
+        .map(|s| (s.warm_up, s.barrier_mu_init, s.outcome))
+        .collect()
+}
+
+#[test]
+fn the_report_lists_every_start_and_which_was_kept() {
+    use StartOutcome::{Discarded, Kept, Polished, SameSide};
+    let (al, barrier) = (WarmUp::AugmentedLagrangian, WarmUp::Barrier);
+    let third = Settings::default().portfolio_third_mu;
+    // Where the first two agree on a poor optimum, the third start (on another side) is kept.
+    let r = solve_json(CAR_S1_I22, Settings::default());
+    let starts = check_starts(&r);
+    assert_eq!(
+        &starts[..3],
+        &[
+            (al, None, Discarded),
+            (barrier, None, Discarded),
+            (barrier, third, Kept)
+        ][..]
+    );
+    // On the kept solution's side the third start stops where its homotopy ends.
+    let r = solve_json(CAR_S1_I12, Settings::default());
+    let starts = check_starts(&r);
+    assert_eq!(starts.len(), 3);
+    assert_eq!(starts[2], (barrier, third, SameSide));
+    // The polish goes on from the augmented Lagrangian's solution to a better one.
+    let r = solve_json(
+        CAR_S1_I10,
+        Settings {
+            portfolio_polish: true,
+            portfolio_apart: 0.0,
+            ..two_starts()
+        },
+    );
+    let starts = check_starts(&r);
+    assert_eq!(starts.last(), Some(&(WarmUp::None, None, Kept)));
+    assert!(starts.iter().any(|s| s.2 == Polished), "{starts:?}");
+    // A single warm-up lists none.
+    for warm_up in [al, barrier] {
+        let r = solve_json(
+            CAR_S1_I22,
+            Settings {
+                warm_up,
+                ..Settings::default()
+            },
+        );
+        assert!(r.starts.is_empty() && !r.table().contains("\nstart "));
     }
 }
 

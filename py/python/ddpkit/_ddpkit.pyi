@@ -1494,6 +1494,17 @@ class SafeSolution:
     @property
     def solve_time(self) -> float:
         """Wall time of the solve inside Rust (s)."""
+    @property
+    def starts(self) -> list[dict[str, Any]]:
+        """The starts of a ``"portfolio"`` cold solve in the order they ran (empty otherwise),
+        each a dict: ``warm_up`` (``"augmented_lagrangian"``, ``"barrier"``, or ``"polish"`` for
+        the KKT/QP iterations from the kept solution), ``barrier_mu_init`` (the third start's
+        initial barrier weight, else ``None``), ``iterations``, ``cost``, ``max_violation``
+        (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the
+        polish went on from it), ``"discarded"`` or ``"same_side"`` (stopped at the end of its
+        homotopy on the kept solution's sides). The ``"kept"`` and ``"polished"`` starts'
+        iterations make up :attr:`iterations`, the others' :attr:`discarded_iterations`; the
+        table lists them after the status line."""
     def table(self) -> str:
         """The iteration table (no timings, so it is deterministic)."""
 

@@ -42,7 +42,9 @@
 //! failure the warm-up runs to its own convergence. Multipliers and penalty carry over between
 //! solves ([`SafeCddpSolver::reset`] is the cold start), and a warm start that is already feasible
 //! skips the warm-up. [`WarmUp::Portfolio`] (the default) solves a feasible cold start with both
-//! warm-ups and keeps the better solution: they often end in different local optima. A solve that
+//! warm-ups and keeps the better solution: they often end in different local optima
+//! ([`crate::Report::starts`] lists each start, its iterations, cost and whether it was kept). A
+//! solve that
 //! ends on a violating trajectory reports [`Status::Infeasible`] (a point of local infeasibility).
 //!
 //! | symbol | field / accessor | equation |
@@ -78,7 +80,7 @@ use self::sides::Sides;
 use self::tighten::Stochastic;
 use self::warm_up::WarmUpState;
 use self::working_set::{Kkt, KktGains};
-use crate::settings::{IterationLog, Report, Settings, Status, WarmUp};
+use crate::settings::{IterationLog, Report, Settings, StartOutcome, StartReport, Status, WarmUp, MAX_STARTS};
 use crate::tightening::Tightening;
 use crate::Constraint;
 
@@ -198,6 +200,8 @@ where
     /// multipliers, the initial penalty): a relaxation in which the path may still cut through
     /// the obstacles (`NaN` until then).
     pub(super) relaxed_cost: f64,
+    /// The starts of this solve so far (the report's [`Report::starts`]).
+    starts: Vec<StartReport>,
 }
 
 impl<NX: Dim, NU: Dim> std::fmt::Debug for SafeCddpSolver<NX, NU>
@@ -299,6 +303,7 @@ where
                 side_test: false,
                 same_side: false,
                 relaxed_cost: f64::NAN,
+                starts: Vec::with_capacity(MAX_STARTS),
             },
         })
     }
@@ -600,6 +605,9 @@ where
         let new_side = self.settings.portfolio_new_side;
         self.portfolio.sides.kept_valid = false;
         self.portfolio.relaxed_cost = f64::NAN;
+        self.portfolio.starts.clear();
+        // The entry in `portfolio.starts` of the kept solution.
+        let mut kept: Option<usize> = None;
         for (i, member) in guesses.into_iter().chain(third).chain(polish).enumerate() {
             if concurrent && i == 1 {
                 // The second start ran on the sibling, alongside the first: its whole end state
@@ -644,7 +652,20 @@ where
             }
             let p = &mut self.portfolio;
             p.side_test = false;
+            let (warm_up, barrier_mu_init) = member.unwrap_or((WarmUp::None, None));
+            let r = &self.report;
+            let mut entry = StartReport {
+                warm_up,
+                barrier_mu_init,
+                iterations: r.iterations,
+                cost: r.cost,
+                max_violation: r.max_violation_tightened,
+                status: r.status,
+                outcome: StartOutcome::Discarded,
+            };
             if std::mem::take(&mut p.same_side) {
+                entry.outcome = StartOutcome::SameSide;
+                p.starts.push(entry);
                 discarded += self.report.iterations;
                 discarded_qps += self.report.qp;
                 live_is_best = false;
@@ -653,11 +674,22 @@ where
             // On a tie the later start is kept.
             let keep_new = i == 0 || !better(&p.report, &self.report, tol);
             if !keep_new {
+                p.starts.push(entry);
                 discarded += self.report.iterations;
                 discarded_qps += self.report.qp;
                 live_is_best = false;
                 continue;
             }
+            if let Some(previous) = kept.and_then(|j| p.starts.get_mut(j)) {
+                previous.outcome = if member.is_none() {
+                    StartOutcome::Polished
+                } else {
+                    StartOutcome::Discarded
+                };
+            }
+            entry.outcome = StartOutcome::Kept;
+            kept = Some(p.starts.len());
+            p.starts.push(entry);
             if member.is_none() {
                 // The polish continues the kept solution: its iterations and QPs count with it
                 // (the log holds the polish's own rows).
@@ -694,6 +726,8 @@ where
         let p = &mut self.portfolio;
         p.member = None;
         p.mu_init = None;
+        self.report.starts.clear();
+        self.report.starts.extend_from_slice(&p.starts);
         self.report.discarded_iterations = discarded;
         self.report.qp += discarded_qps;
         self.report.solve_time = start.elapsed();
@@ -789,9 +823,14 @@ where
     /// third start may look for a cheaper way around the obstacles.
     fn kept_is_poor(&self) -> bool {
         let p = &self.portfolio;
-        self.settings
-            .portfolio_new_side
-            .is_some_and(|factor| !(p.report.cost <= factor * p.relaxed_cost))
+        self.settings.portfolio_new_side.is_some_and(|factor| {
+            // Not at or below the gate, which includes an unknown (NaN) relaxed cost.
+            let gate = factor * p.relaxed_cost;
+            !matches!(
+                p.report.cost.partial_cmp(&gate),
+                Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+            )
+        })
     }
 
     /// Whether the current trajectory passes every state constraint on the kept solution's side
@@ -914,6 +953,7 @@ where
         r.forward_passes = 0;
         r.infeasible_forward_passes = 0;
         r.tightenings = 0;
+        r.starts.clear();
         r.status = Status::MaxIterations;
         self.fwd.qp.reset_stats();
         self.fwd.clear_hints();

@@ -44,8 +44,8 @@
 //! skips the warm-up. [`WarmUp::Portfolio`] (the default) solves a feasible cold start with both
 //! warm-ups and keeps the better solution: they often end in different local optima
 //! ([`crate::Report::starts`] lists each start, its iterations, cost and whether it was kept). A
-//! solve that
-//! ends on a violating trajectory reports [`Status::Infeasible`] (a point of local infeasibility).
+//! solve that ends on a violating trajectory reports [`Status::Infeasible`] (a point of local
+//! infeasibility).
 //!
 //! | symbol | field / accessor | equation |
 //! |---|---|---|

@@ -63,6 +63,8 @@ class Entry:
         self.cost = float("nan")
         #: The last solution `(xs, us, status)`, where the solve callable records it.
         self.solution: Any = None
+        #: ddpkit's portfolio starts of the last solve (`SafeSolution.starts`), where recorded.
+        self.starts: list[dict[str, Any]] = []
 
     def run_once(self) -> None:
         t0 = time.perf_counter()
@@ -218,6 +220,7 @@ def ddpkit_constrained_entries(
         def solve(solver: Any = solver, entry: Entry = entry) -> tuple[int, float, Optional[float]]:
             xs, us, iterations, status, _ = solver.solve_raw()  # cold
             entry.solution = (xs, us, status)
+            entry.starts = solver.starts
             return iterations, p.objective(xs, us), None
 
         entry.solve = solve

@@ -254,6 +254,9 @@ def solve_problem(
         }
         if key != "ddpkit" and p.u_max is not None:
             solvers[key]["bounds_active"] = bool(np.any(np.abs(us) >= p.u_max - 1e-6))
+        if key == "ddpkit":
+            # The portfolio's starts (which was kept, each one's iterations and cost).
+            solvers[key]["starts"] = e.starts
     record = {"id": spec["name"], "spec": spec, "solvers": solvers, **compare_solutions(p, solvers, peers)}
     if diagnose and not record.get("match", True) and "ddpkit" in solutions and "ipopt" in peers:
         # Where IPOPT goes from ddpkit's solution (untimed): does ddpkit stop at a local minimum?
@@ -352,7 +355,28 @@ def summarise(records: list[dict[str, Any]], peers: tuple[str, ...]) -> dict[str
     for r in records:
         patterns[r["pattern"]] = patterns.get(r["pattern"], 0) + 1
     out["patterns"] = patterns
+    out["kept_start"], out["iterations_by_start"] = start_counts(records)
     return out
+
+
+def start_counts(records: list[dict[str, Any]]) -> tuple[dict[str, int], dict[str, int]]:
+    """Which of the portfolio's starts ddpkit's solutions came from, and the iterations of
+    each start, by start name."""
+    kept: dict[str, int] = {}
+    iterations: dict[str, int] = {}
+    for r in records:
+        for st in r["solvers"]["ddpkit"].get("starts", []):
+            name = start_name(st)
+            iterations[name] = iterations.get(name, 0) + st["iterations"]
+            if st["outcome"] == "kept":
+                kept[name] = kept.get(name, 0) + 1
+    return kept, iterations
+
+
+def start_name(st: dict[str, Any]) -> str:
+    """A portfolio start's name: its warm-up, and the third start's barrier weight."""
+    mu = st.get("barrier_mu_init")
+    return st["warm_up"] if mu is None else f"{st['warm_up']} (mu_init {mu:g})"
 
 
 #: Histogram bins of the signed relative gap (ddpkit - better peer) / better peer.
@@ -422,6 +446,10 @@ def print_summary(
             + "".join(f", {v} {k}" for k, v in sorted(s["ddpkit_lower_why"].items()))
         )
     print("outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(summaries["all"]["patterns"].items())) if records else "")
+    if records and summaries["all"]["iterations_by_start"]:
+        s = summaries["all"]
+        print("portfolio start kept: " + ", ".join(f"{k} {v}" for k, v in sorted(s["kept_start"].items())))
+        print("portfolio iterations by start: " + ", ".join(f"{k} {v}" for k, v in sorted(s["iterations_by_start"].items())))
     misses = [r for r in records if not r["match"]]
     if misses:
         print("ddpkit misses:")

@@ -183,6 +183,8 @@ class DdpkitSolver:
         self.base_solver = ddpkit.Solver(self.base, method=method, max_iterations=max_iterations)
         # The constrained solver (Safe-CDDP without tightening), workspace allocated once.
         self.constrained: Optional[ddpkit.SafeCddpSolver] = None
+        #: The last constrained solve's portfolio starts (`SafeSolution.starts`; empty otherwise).
+        self.starts: list[dict[str, Any]] = []
         if len(p.obstacles) > 0 and obstacles == "constrained":
             circles = [ddpkit.Circle(o[:2], float(o[2])) for o in p.obstacles]
             self.constrained = ddpkit.SafeCddpSolver(
@@ -225,11 +227,13 @@ class DdpkitSolver:
         """Solves from a cold start: `(xs, us, iterations, status, rounds)`, nothing checked.
         This is what is timed."""
         p = self.p
+        self.starts = []
         if len(p.obstacles) == 0:
             sol = self.base_solver.solve()  # cold
             return sol.xs, sol.us, sol.iterations, sol.status, 1
         if self.constrained is not None:
             c = self.constrained.solve()  # cold: zero controls, multipliers and penalty reset
+            self.starts = c.starts
             return c.xs, c.us, c.iterations, c.status, 1
         lam = np.zeros((p.N, len(p.obstacles)))
         us: Optional[np.ndarray] = None

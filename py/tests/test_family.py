@@ -132,6 +132,15 @@ def test_repeats_default_and_median() -> None:
     d = rec["solvers"]["ddpkit"]
     assert len(d["ms_all"]) == 3
     assert d["ms"] == pytest.approx(sorted(d["ms_all"])[1])
+    # The record names the portfolio's starts; the summary counts the kept one.
+    starts = d["starts"]
+    assert [st["warm_up"] for st in starts[:2]] == ["augmented_lagrangian", "barrier"]
+    assert sum(st["outcome"] == "kept" for st in starts) == 1
+    kept = [st for st in starts if st["outcome"] in ("kept", "polished")]
+    assert sum(st["iterations"] for st in kept) == d["iterations"]
+    kept_by, iterations_by = family.start_counts([rec])
+    assert sum(kept_by.values()) == 1
+    assert sum(iterations_by.values()) == sum(st["iterations"] for st in starts)
 
 
 def test_the_hard_barrier_option_gives_the_earlier_starts() -> None:

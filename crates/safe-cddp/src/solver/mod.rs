@@ -606,8 +606,6 @@ where
         self.portfolio.sides.kept_valid = false;
         self.portfolio.relaxed_cost = f64::NAN;
         self.portfolio.starts.clear();
-        // The entry in `portfolio.starts` of the kept solution.
-        let mut kept: Option<usize> = None;
         for (i, member) in guesses.into_iter().chain(third).chain(polish).enumerate() {
             if concurrent && i == 1 {
                 // The second start ran on the sibling, alongside the first: its whole end state
@@ -680,7 +678,7 @@ where
                 live_is_best = false;
                 continue;
             }
-            if let Some(previous) = kept.and_then(|j| p.starts.get_mut(j)) {
+            if let Some(previous) = p.starts.iter_mut().find(|s| s.outcome == StartOutcome::Kept) {
                 previous.outcome = if member.is_none() {
                     StartOutcome::Polished
                 } else {
@@ -688,7 +686,6 @@ where
                 };
             }
             entry.outcome = StartOutcome::Kept;
-            kept = Some(p.starts.len());
             p.starts.push(entry);
             if member.is_none() {
                 // The polish continues the kept solution: its iterations and QPs count with it

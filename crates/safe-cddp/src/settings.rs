@@ -56,7 +56,10 @@ impl WarmUp {
 /// Settings of [`crate::SafeCddpSolver`]; validated when the solver is built.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
-    /// iLQR (Gauss-Newton dynamics) or full DDP (second-order dynamics terms in eq. (5)).
+    /// iLQR (Gauss-Newton dynamics) or full DDP (second-order dynamics terms in eq. (5)). Full
+    /// DDP takes Gauss-Newton passes in the barrier warm-up's homotopy and its second-order terms
+    /// from the hand-over on: far from the solution they add cost and indefiniteness, not
+    /// convergence.
     pub method: Method,
     /// Maximum number of iterations of [`crate::SafeCddpSolver::solve`].
     pub max_iterations: usize,

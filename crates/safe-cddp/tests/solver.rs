@@ -190,3 +190,35 @@ fn rows_with_positive_multipliers_stay_active_at_the_hand_over() {
     let fatrop = 0.15566593142679913;
     assert!(r.cost <= fatrop * (1.0 + 1e-6), "cost {} against {fatrop}", r.cost);
 }
+
+#[test]
+fn full_ddp_takes_gauss_newton_passes_in_the_barrier_homotopy() {
+    // P2's car has second-order dynamics terms; under full DDP its barrier subproblems still
+    // take Gauss-Newton passes, so the homotopy's iterations are iLQR's to the bit, and full
+    // DDP's own iterations begin at the hand-over.
+    let p = BenchmarkProblem::from_file(problems_dir().join("p2_car4.json")).unwrap();
+    let (problem, constraints) = p.car_or_point().unwrap();
+    assert!(problem.knots()[0].dynamics.has_second_order());
+    let solve = |method| {
+        let settings = Settings {
+            method,
+            warm_up: safe_cddp::WarmUp::Barrier,
+            ..Settings::default()
+        };
+        let mut solver = SafeCddpSolver::new(&problem, constraints.clone(), settings).unwrap();
+        solver.solve(&problem).unwrap().clone()
+    };
+    let (gn, ddp) = (solve(ddp_core::Method::Ilqr), solve(ddp_core::Method::Ddp));
+    let homotopy = |r: &safe_cddp::Report| -> Vec<(u64, u64, u64)> {
+        r.log
+            .iter()
+            .filter(|l| l.warm_up == Some(safe_cddp::WarmUp::Barrier))
+            .map(|l| (l.cost.to_bits(), l.step.to_bits(), l.mu.to_bits()))
+            .collect()
+    };
+    assert!(homotopy(&gn).len() >= 5, "{} homotopy iterations", homotopy(&gn).len());
+    assert_eq!(homotopy(&gn), homotopy(&ddp));
+    assert_eq!(ddp.status, Status::Converged);
+    assert!(ddp.cost <= 1.1972797 * (1.0 + 1e-6), "cost {}", ddp.cost);
+    assert!(ddp.max_violation <= 1e-6, "violation {}", ddp.max_violation);
+}

@@ -1357,7 +1357,8 @@ class SafeCddpSolver:
     per-step QPs in the forward pass) after a warm-up, with the chance-constraint margins of a
     :class:`Tightening` updated every ``n2`` iterations.
 
-    ``constraints`` is a sequence of :class:`Constraint`; ``method`` ``"ilqr"`` or ``"ddp"``;
+    ``constraints`` is a sequence of :class:`Constraint`; ``method`` ``"ilqr"`` or ``"ddp"``
+    (full DDP takes Gauss-Newton passes in the barrier homotopy, its second-order terms after);
     ``qp_method`` ``"fast"`` (unconstrained / active-set / Clarabel) or ``"clarabel"``;
     ``warm_up`` how a solve reaches the KKT/QP iterations: ``"augmented_lagrangian"``,
     ``"barrier"`` (log-barrier subproblems first, from ``barrier_mu_init``, the logarithm

@@ -1028,13 +1028,28 @@ where
         }
     }
 
+    /// The backward pass's method now: Gauss-Newton in the barrier warm-up's homotopy, the
+    /// settings' otherwise. The homotopy's subproblems are solved loosely and far from the
+    /// solution, where full DDP's second-order dynamics terms add cost and indefiniteness (its
+    /// failed passes) rather than convergence; full DDP takes over at the hand-over, where its
+    /// faster local convergence pays (on the obstacle of `traced.py` 0.92x the time; on the
+    /// problem family under full DDP 0.95x, the same matches; see bench/peers/README.md).
+    fn method_now(&self) -> ddp_core::Method {
+        if self.warm.active && self.warm.barrier {
+            ddp_core::Method::Ilqr
+        } else {
+            self.settings.method
+        }
+    }
+
     /// The backward pass with the KKT gains, raising `mu` until it succeeds (full DDP retries
     /// with the second-order terms gated, as `ddp-core`'s solver does:
     /// [`ddp_core::solver::MuSchedule::until_definite`]).
     fn compute_direction(&mut self, problem: &Problem<NX, NU>) -> std::result::Result<(), Status> {
         let s = self.settings;
+        let method = self.method_now();
         let (mut reg, mut passes) = (self.core.reg, 0);
-        let ok = reg.until_definite(&s.regularization, s.method, &mut passes, |opts| {
+        let ok = reg.until_definite(&s.regularization, method, &mut passes, |opts| {
             self.kkt_backward(problem, opts)
         });
         self.core.reg = reg;
@@ -1285,11 +1300,11 @@ where
         let opts = BackwardOptions {
             mu,
             placement: s.regularization.placement,
-            method: s.method,
+            method: self.method_now(),
             gated: false,
         };
         // Full DDP retries a failed pass with the second-order terms gated, as a solve does.
-        let ddp = s.method == ddp_core::Method::Ddp;
+        let ddp = opts.method == ddp_core::Method::Ddp;
         Ok(self.kkt_backward(problem, opts).is_ok()
             || (ddp
                 && self
@@ -1421,7 +1436,7 @@ where
             self.save_slacks();
         }
         if self.it.moved {
-            self.core.linearize(problem, self.settings.method);
+            self.core.linearize(problem, self.method_now());
             let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
             self.rows.linearize(&self.constraints, problem.bounds(), xs, us, n);
             self.it.chained = false;

@@ -37,6 +37,14 @@
 //!   [`Program::jacobian_keep`] leaves them in the knot's data and
 //!   [`Program::second_order_kept`] runs only the reverse sweep and the curvature terms.
 //!
+//! - **Instructions in runs of one kind.** The sweeps are bound by the dispatch on each
+//!   instruction's kind (an indirect jump whose target changes from one instruction to the next,
+//!   which the branch predictor misses often) rather than by the arithmetic. Compiling reorders
+//!   the instructions (each still after those whose slots it reads; every slot is written once)
+//!   so that additions, products and the fused `a + c b` follow each other, and the sweeps
+//!   dispatch once per run: the planar quadrotor's RK4 step takes 0.26 instead of 0.45 us, the
+//!   same bits.
+//!
 //! - **No bounds checks in the loops.** `s`, `dot` and `bar` are padded to a power of two (the
 //!   program's width) and the loops index them as fixed-size arrays through a mask, which
 //!   changes no index (every slot is below the width) and lets the compiler prove each access in
@@ -69,6 +77,91 @@ enum Kind {
     Powc(f64),
     /// Partial slots `d .. d + 5`: `phi_a, phi_b, phi_aa, phi_ab, phi_bb`.
     Binary(Binary),
+}
+
+/// Instructions in runs of one kind (see [`Instrs::new`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+struct Instrs {
+    list: Vec<Instr>,
+    /// Lengths of the runs of `list`.
+    runs: Vec<u32>,
+}
+
+impl Instrs {
+    /// Reorders `list` (each instruction still after those whose slots it reads; every slot is
+    /// written once) so that instructions of one kind follow each other: Kahn's topological
+    /// sort, staying with the kind just emitted while one of it is ready, else taking the
+    /// lowest-index ready instruction. The values are those of the original order, bit for bit.
+    fn new(list: Vec<Instr>) -> Self {
+        let key = |k: &Kind| -> u32 {
+            match *k {
+                Kind::Add => 0,
+                Kind::Sub => 1,
+                Kind::Mul => 2,
+                Kind::Neg => 3,
+                Kind::AddScaled => 4,
+                Kind::SubScaled => 5,
+                Kind::SinCos => 6,
+                Kind::Powc(_) => 7,
+                Kind::Unary(op) => 100 + op as u32,
+                Kind::Binary(op) => 200 + op as u32,
+            }
+        };
+        let reads = |i: &Instr| -> [Option<u32>; 2] {
+            match i.kind {
+                Kind::Add | Kind::Sub | Kind::Mul | Kind::Binary(_) | Kind::AddScaled | Kind::SubScaled => {
+                    [Some(i.a), Some(i.b)]
+                }
+                _ => [Some(i.a), None],
+            }
+        };
+        let mut writer: BTreeMap<u32, usize> = BTreeMap::new();
+        for (n, i) in list.iter().enumerate() {
+            writer.insert(i.dst, n);
+            if i.kind == Kind::SinCos {
+                writer.insert(i.b, n);
+            }
+        }
+        let mut after: Vec<Vec<usize>> = vec![Vec::new(); list.len()];
+        let mut waiting = vec![0usize; list.len()];
+        for (n, i) in list.iter().enumerate() {
+            let mut deps: Vec<usize> = reads(i)
+                .into_iter()
+                .flatten()
+                .filter_map(|x| writer.get(&x).copied())
+                .collect();
+            deps.sort_unstable();
+            deps.dedup();
+            waiting[n] = deps.len();
+            for d in deps {
+                after[d].push(n);
+            }
+        }
+        let mut ready: std::collections::BTreeSet<usize> = (0..list.len()).filter(|&n| waiting[n] == 0).collect();
+        let (mut out, mut runs): (Vec<Instr>, Vec<u32>) = (Vec::with_capacity(list.len()), Vec::new());
+        let mut current: Option<u32> = None;
+        while let Some(&first) = ready.iter().next() {
+            let pick = current
+                .and_then(|k| ready.iter().copied().find(|&n| key(&list[n].kind) == k))
+                .unwrap_or(first);
+            ready.remove(&pick);
+            let k = key(&list[pick].kind);
+            if current == Some(k) {
+                *runs.last_mut().unwrap() += 1;
+            } else {
+                runs.push(1);
+                current = Some(k);
+            }
+            out.push(list[pick]);
+            for &m in &after[pick] {
+                waiting[m] -= 1;
+                if waiting[m] == 0 {
+                    ready.insert(m);
+                }
+            }
+        }
+        Instrs { list: out, runs }
+    }
 }
 
 /// One instruction: `s[dst] = kind(s[a], s[b])`, partials from `d` on.
@@ -165,11 +258,11 @@ pub struct Program {
     width: usize,
     /// `s` with the constants and coefficients in place (the rest is written by every run).
     s_template: Vec<f64>,
-    instrs: Vec<Instr>,
+    instrs: Instrs,
     /// The instructions [`Program::jacobian`] and [`Program::second_order`] run: those whose
     /// values or partials their sweeps read.
-    jacobian_instrs: Vec<Instr>,
-    hessian_instrs: Vec<Instr>,
+    jacobian_instrs: Instrs,
+    hessian_instrs: Instrs,
     outputs: Vec<u32>,
     /// The constant tangent entries (`0`, `1`, and the entries of linear combinations of the
     /// inputs); run-time entries follow, up to `n_dot`.
@@ -407,9 +500,48 @@ fn tangent_kernel<A: Slots + ?Sized>(list: &Tangents, s: &A, dot: &mut A) {
     }
 }
 
-/// The instructions on `s` (see [`Program::run`]).
+/// The instructions on `s` (see [`Program::run`]), run by run: every run (`runs`, lengths)
+/// holds instructions of one kind, so the common kinds dispatch once per run.
 #[inline(always)]
-fn sweep_kernel<const ORDER: u8, A: Slots + ?Sized>(instrs: &[Instr], s: &mut A) {
+fn sweep_kernel<const ORDER: u8, A: Slots + ?Sized>(instrs: &[Instr], runs: &[u32], s: &mut A) {
+    let mut rest = instrs;
+    for &n in runs {
+        let (run, tail) = rest.split_at(n as usize);
+        rest = tail;
+        match run[0].kind {
+            Kind::Add => {
+                for i in run {
+                    *s.at_mut(i.dst) = s.at(i.a) + s.at(i.b);
+                }
+            }
+            Kind::Sub => {
+                for i in run {
+                    *s.at_mut(i.dst) = s.at(i.a) - s.at(i.b);
+                }
+            }
+            Kind::Mul => {
+                for i in run {
+                    *s.at_mut(i.dst) = s.at(i.a) * s.at(i.b);
+                }
+            }
+            Kind::AddScaled => {
+                for i in run {
+                    *s.at_mut(i.dst) = s.at(i.a) + s.at(i.d) * s.at(i.b);
+                }
+            }
+            Kind::SubScaled => {
+                for i in run {
+                    *s.at_mut(i.dst) = s.at(i.a) - s.at(i.d) * s.at(i.b);
+                }
+            }
+            _ => sweep_each::<ORDER, A>(run, s),
+        }
+    }
+}
+
+/// The instructions on `s` one at a time.
+#[inline(always)]
+fn sweep_each<const ORDER: u8, A: Slots + ?Sized>(instrs: &[Instr], s: &mut A) {
     for ins in instrs {
         let (a, b, d) = (ins.a, ins.b, ins.d);
         let v = match ins.kind {
@@ -953,9 +1085,9 @@ impl Program {
             n_consts: consts.len(),
             s_template,
             n_slots,
-            instrs: fuse_scaled(instrs, &outputs, |x| const_value(x).is_some()),
-            jacobian_instrs,
-            hessian_instrs,
+            instrs: Instrs::new(fuse_scaled(instrs, &outputs, |x| const_value(x).is_some())),
+            jacobian_instrs: Instrs::new(jacobian_instrs),
+            hessian_instrs: Instrs::new(hessian_instrs),
             outputs,
             dot_template: tc.template,
             n_dot,
@@ -980,7 +1112,7 @@ impl Program {
     /// Loads `z = (x, u)` (`x.len() + u.len() == n_inputs`) and the constants, then runs the
     /// instructions: values, with the first partials (`ORDER >= 1`) and second partials
     /// (`ORDER == 2`).
-    fn run<const ORDER: u8>(&self, instrs: &[Instr], ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
+    fn run<const ORDER: u8>(&self, instrs: &Instrs, ws: &mut ProgramWorkspace, x: &[f64], u: &[f64]) {
         if ws.loaded != self.id.0 {
             grow(&mut ws.s, self.width);
             grow(&mut ws.dot, self.width);
@@ -1001,7 +1133,7 @@ impl Program {
 
     /// [`Program::run`] on a loaded `s` (`width` entries).
     #[inline(always)]
-    fn sweep<const ORDER: u8>(&self, instrs: &[Instr], s: &mut [f64], x: &[f64], u: &[f64]) {
+    fn sweep<const ORDER: u8>(&self, instrs: &Instrs, s: &mut [f64], x: &[f64], u: &[f64]) {
         let n = self.n_inputs;
         copy_small(&mut s[..x.len()], x);
         copy_small(&mut s[x.len()..n], u);
@@ -1010,7 +1142,7 @@ impl Program {
                 match self.width {
                     $($w => {
                         if let Ok(s) = <&mut [f64; $w]>::try_from(&mut *s) {
-                            return sweep_kernel::<ORDER, _>(instrs, s);
+                            return sweep_kernel::<ORDER, _>(&instrs.list, &instrs.runs, s);
                         }
                     })*
                     _ => {}
@@ -1018,7 +1150,7 @@ impl Program {
             };
         }
         fixed!(8 16 32 64 128 256 512 1024 2048 4096 8192);
-        sweep_kernel::<ORDER, _>(instrs, s)
+        sweep_kernel::<ORDER, _>(&instrs.list, &instrs.runs, s)
     }
 
     fn tangents(&self, ws: &mut ProgramWorkspace, list: &Tangents) {

@@ -44,8 +44,9 @@ pub mod tape;
 
 use pyo3::prelude::*;
 
-/// The compiled `(nx, nu)` pairs, as a list of tuples: the fixed-size fast path (and the sizes
-/// Safe-CDDP supports). Every other size works too, at run-time sizes.
+/// The compiled `(nx, nu)` pairs, as a list of tuples: the fixed-size fast path of the built-in
+/// robots and of a cart-pole or acrobot `(4, 1)` and a planar quadrotor `(6, 2)`. Every other
+/// size works too, at run-time sizes.
 #[pyfunction]
 fn supported_dimensions() -> Vec<(usize, usize)> {
     dims::PAIRS.to_vec()

@@ -529,3 +529,31 @@ def test_an_exception_in_a_callable_cost_reaches_problem_cost() -> None:
         problem.cost(problem.rollout(us), us)
     # Nothing is left pending: the next evaluation on this thread is clean.
     assert ddpkit.Cost.from_function(terminal, nx=4).value(np.zeros(4)) == pytest.approx(50.0 * np.pi**2)
+
+
+def test_a_traced_model_at_a_compiled_size_solves_as_at_a_run_time_size() -> None:
+    # The cart-pole's (4, 1) is a compiled pair (fixed-size matrices, the fast path); the same
+    # cart-pole with a fifth, decoupled and unweighted state (5, 1) runs at run-time sizes. Both
+    # take the same full-DDP iterations to the same swing-up.
+    assert (4, 1) in ddpkit.supported_dimensions() and (6, 2) in ddpkit.supported_dimensions()
+    assert (5, 1) not in ddpkit.supported_dimensions()
+
+    def padded(x, u):
+        return np.append(cartpole_ode(x[:4], u), 0.0)
+
+    small = ddpkit.Solver(cartpole_problem(traced_cartpole(), horizon=60), method="ddp").solve()
+    big = ddpkit.Solver(
+        ddpkit.Problem(
+            x0=np.zeros(5),
+            dynamics=ddpkit.Dynamics.from_function(padded, nx=5, nu=1, dt=DT, integrator="rk4"),
+            running_cost=ddpkit.Cost.from_function(lambda x, u: running(x[:4], u), nx=5, nu=1),
+            terminal_cost=ddpkit.Cost.from_function(lambda x: terminal(x[:4]), nx=5),
+            horizon=60,
+        ),
+        method="ddp",
+    ).solve()
+    assert small.converged and big.converged, (small.status, big.status)
+    assert small.iterations == big.iterations
+    assert small.cost == pytest.approx(big.cost, rel=1e-10)
+    np.testing.assert_allclose(small.us, big.us, atol=1e-8)
+    np.testing.assert_allclose(small.xs, big.xs[:, :4], atol=1e-8)

@@ -18,7 +18,8 @@ Example (benchmark P1, Crocoddyl's unicycle)::
 Any size: :class:`LinearDynamics`, :class:`QuadraticCost`, :class:`QuadraticTerminal`,
 :class:`ControlSquared`, control bounds, :class:`Problem` and :class:`Solver` take any ``nx`` and
 ``nu`` (a 7-state, 3-control example is in the docs of ``ddpkit._ddpkit``); the built-in robots'
-sizes (:func:`supported_dimensions`) run on fixed-size matrices.
+sizes, a cart-pole's and a planar quadrotor's (:func:`supported_dimensions`) run on fixed-size
+matrices.
 
 Every error is a :class:`DdpError` (``ShapeError``, ``NotFiniteError`` and ``InvalidInputError``
 are also ``ValueError``\\ s) whose ``field`` attribute names the offending argument. Solves

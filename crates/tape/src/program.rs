@@ -137,17 +137,32 @@ impl Instrs {
                 after[d].push(n);
             }
         }
-        let mut ready: std::collections::BTreeSet<usize> = (0..list.len()).filter(|&n| waiting[n] == 0).collect();
+        // The ready instructions, all and by kind (O(n log n) for tapes of any length).
+        use std::collections::BTreeSet;
+        let mut ready: BTreeSet<usize> = BTreeSet::new();
+        let mut ready_of: BTreeMap<u32, BTreeSet<usize>> = BTreeMap::new();
+        let push = |n: usize, ready: &mut BTreeSet<usize>, ready_of: &mut BTreeMap<u32, BTreeSet<usize>>| {
+            ready.insert(n);
+            ready_of.entry(key(&list[n].kind)).or_default().insert(n);
+        };
+        for n in (0..list.len()).filter(|&n| waiting[n] == 0) {
+            push(n, &mut ready, &mut ready_of);
+        }
         let (mut out, mut runs): (Vec<Instr>, Vec<u32>) = (Vec::with_capacity(list.len()), Vec::new());
         let mut current: Option<u32> = None;
-        while let Some(&first) = ready.iter().next() {
+        while let Some(&first) = ready.first() {
             let pick = current
-                .and_then(|k| ready.iter().copied().find(|&n| key(&list[n].kind) == k))
+                .and_then(|k| ready_of.get(&k).and_then(|r| r.first().copied()))
                 .unwrap_or(first);
-            ready.remove(&pick);
             let k = key(&list[pick].kind);
+            ready.remove(&pick);
+            if let Some(r) = ready_of.get_mut(&k) {
+                r.remove(&pick);
+            }
             if current == Some(k) {
-                *runs.last_mut().unwrap() += 1;
+                if let Some(last) = runs.last_mut() {
+                    *last += 1;
+                }
             } else {
                 runs.push(1);
                 current = Some(k);
@@ -156,7 +171,7 @@ impl Instrs {
             for &m in &after[pick] {
                 waiting[m] -= 1;
                 if waiting[m] == 0 {
-                    ready.insert(m);
+                    push(m, &mut ready, &mut ready_of);
                 }
             }
         }

@@ -79,6 +79,55 @@ enum Kind {
     Binary(Binary),
 }
 
+/// A topological order of `deps.len()` items (`deps[i]`: the items that must precede item `i`)
+/// that keeps items of one kind together: Kahn's sort, staying with the kind just emitted while
+/// one of it is ready, else taking the lowest-index ready item. O(n log n).
+fn grouped_order(mut deps: Vec<Vec<usize>>, key: impl Fn(usize) -> u32) -> Vec<usize> {
+    use std::collections::BTreeSet;
+    let n = deps.len();
+    let mut after: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let mut waiting = vec![0usize; n];
+    for (i, d) in deps.iter_mut().enumerate() {
+        d.sort_unstable();
+        d.dedup();
+        waiting[i] = d.len();
+        for &j in d.iter() {
+            after[j].push(i);
+        }
+    }
+    // The ready items, all and by kind.
+    let mut ready: BTreeSet<usize> = BTreeSet::new();
+    let mut ready_of: BTreeMap<u32, BTreeSet<usize>> = BTreeMap::new();
+    let push = |i: usize, ready: &mut BTreeSet<usize>, ready_of: &mut BTreeMap<u32, BTreeSet<usize>>| {
+        ready.insert(i);
+        ready_of.entry(key(i)).or_default().insert(i);
+    };
+    for i in (0..n).filter(|&i| waiting[i] == 0) {
+        push(i, &mut ready, &mut ready_of);
+    }
+    let mut order = Vec::with_capacity(n);
+    let mut current: Option<u32> = None;
+    while let Some(&first) = ready.first() {
+        let pick = current
+            .and_then(|k| ready_of.get(&k).and_then(|r| r.first().copied()))
+            .unwrap_or(first);
+        let k = key(pick);
+        ready.remove(&pick);
+        if let Some(r) = ready_of.get_mut(&k) {
+            r.remove(&pick);
+        }
+        current = Some(k);
+        order.push(pick);
+        for &j in &after[pick] {
+            waiting[j] -= 1;
+            if waiting[j] == 0 {
+                push(j, &mut ready, &mut ready_of);
+            }
+        }
+    }
+    order
+}
+
 /// Instructions in runs of one kind (see [`Instrs::new`]).
 #[derive(Debug, Clone, PartialEq, Default)]
 struct Instrs {
@@ -89,9 +138,8 @@ struct Instrs {
 
 impl Instrs {
     /// Reorders `list` (each instruction still after those whose slots it reads; every slot is
-    /// written once) so that instructions of one kind follow each other: Kahn's topological
-    /// sort, staying with the kind just emitted while one of it is ready, else taking the
-    /// lowest-index ready instruction. The values are those of the original order, bit for bit.
+    /// written once) so that instructions of one kind follow each other ([`grouped_order`]).
+    /// The values are those of the original order, bit for bit.
     fn new(list: Vec<Instr>) -> Self {
         let key = |k: &Kind| -> u32 {
             match *k {
@@ -122,58 +170,27 @@ impl Instrs {
                 writer.insert(i.b, n);
             }
         }
-        let mut after: Vec<Vec<usize>> = vec![Vec::new(); list.len()];
-        let mut waiting = vec![0usize; list.len()];
-        for (n, i) in list.iter().enumerate() {
-            let mut deps: Vec<usize> = reads(i)
-                .into_iter()
-                .flatten()
-                .filter_map(|x| writer.get(&x).copied())
-                .collect();
-            deps.sort_unstable();
-            deps.dedup();
-            waiting[n] = deps.len();
-            for d in deps {
-                after[d].push(n);
-            }
-        }
-        // The ready instructions, all and by kind (O(n log n) for tapes of any length).
-        use std::collections::BTreeSet;
-        let mut ready: BTreeSet<usize> = BTreeSet::new();
-        let mut ready_of: BTreeMap<u32, BTreeSet<usize>> = BTreeMap::new();
-        let push = |n: usize, ready: &mut BTreeSet<usize>, ready_of: &mut BTreeMap<u32, BTreeSet<usize>>| {
-            ready.insert(n);
-            ready_of.entry(key(&list[n].kind)).or_default().insert(n);
-        };
-        for n in (0..list.len()).filter(|&n| waiting[n] == 0) {
-            push(n, &mut ready, &mut ready_of);
-        }
+        let deps = list
+            .iter()
+            .map(|i| {
+                reads(i)
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|x| writer.get(&x).copied())
+                    .collect()
+            })
+            .collect();
+        let order = grouped_order(deps, |n| key(&list[n].kind));
         let (mut out, mut runs): (Vec<Instr>, Vec<u32>) = (Vec::with_capacity(list.len()), Vec::new());
         let mut current: Option<u32> = None;
-        while let Some(&first) = ready.first() {
-            let pick = current
-                .and_then(|k| ready_of.get(&k).and_then(|r| r.first().copied()))
-                .unwrap_or(first);
-            let k = key(&list[pick].kind);
-            ready.remove(&pick);
-            if let Some(r) = ready_of.get_mut(&k) {
-                r.remove(&pick);
+        for n in order {
+            let k = key(&list[n].kind);
+            match runs.last_mut() {
+                Some(last) if current == Some(k) => *last += 1,
+                _ => runs.push(1),
             }
-            if current == Some(k) {
-                if let Some(last) = runs.last_mut() {
-                    *last += 1;
-                }
-            } else {
-                runs.push(1);
-                current = Some(k);
-            }
-            out.push(list[pick]);
-            for &m in &after[pick] {
-                waiting[m] -= 1;
-                if waiting[m] == 0 {
-                    push(m, &mut ready, &mut ready_of);
-                }
-            }
+            current = Some(k);
+            out.push(list[n]);
         }
         Instrs { list: out, runs }
     }
@@ -427,53 +444,23 @@ impl Tangents {
             .unwrap_or(0);
         let mut writer: Vec<Option<usize>> = vec![None; len];
         let mut readers: Vec<Vec<usize>> = vec![Vec::new(); len];
-        let mut after: Vec<Vec<usize>> = vec![Vec::new(); list.len()];
-        let mut waiting = vec![0usize; list.len()];
+        let mut deps: Vec<Vec<usize>> = Vec::with_capacity(list.len());
         for (i, f) in list.iter().enumerate() {
-            let mut deps: Vec<usize> = [f.a, f.b, f.out]
-                .iter()
-                .filter_map(|&x| writer[x as usize])
-                .chain(readers[f.out as usize].iter().copied())
-                .filter(|&j| j != i)
-                .collect();
-            deps.sort_unstable();
-            deps.dedup();
-            waiting[i] = deps.len();
-            for j in deps {
-                after[j].push(i);
-            }
+            deps.push(
+                [f.a, f.b, f.out]
+                    .iter()
+                    .filter_map(|&x| writer[x as usize])
+                    .chain(readers[f.out as usize].iter().copied())
+                    .filter(|&j| j != i)
+                    .collect(),
+            );
             for x in [f.a, f.b] {
                 readers[x as usize].push(i);
             }
             writer[f.out as usize] = Some(i);
             readers[f.out as usize].clear();
         }
-        // Kahn's topological sort, emitting every ready record of one kind (lowest index first)
-        // before switching to the other kind.
-        use std::cmp::Reverse;
-        use std::collections::BinaryHeap;
-        let mut ready: [BinaryHeap<Reverse<usize>>; 2] = [BinaryHeap::new(), BinaryHeap::new()];
-        for (i, f) in list.iter().enumerate() {
-            if waiting[i] == 0 {
-                ready[single(f) as usize].push(Reverse(i));
-            }
-        }
-        let mut order = Vec::with_capacity(list.len());
-        let mut kind = 0;
-        while order.len() < list.len() {
-            if ready[kind].is_empty() {
-                kind = 1 - kind;
-            }
-            while let Some(Reverse(i)) = ready[kind].pop() {
-                order.push(i);
-                for &j in &after[i] {
-                    waiting[j] -= 1;
-                    if waiting[j] == 0 {
-                        ready[single(&list[j]) as usize].push(Reverse(j));
-                    }
-                }
-            }
-        }
+        let order = grouped_order(deps, |i| single(&list[i]) as u32);
         let mut t = Tangents::default();
         for f in order.iter().map(|&i| &list[i]) {
             let single = single(f);

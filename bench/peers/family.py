@@ -374,7 +374,10 @@ def start_counts(records: list[dict[str, Any]]) -> tuple[dict[str, int], dict[st
 
 
 def start_name(st: dict[str, Any]) -> str:
-    """A portfolio start's name: its warm-up, and the third start's barrier weight."""
+    """A portfolio start's name: its warm-up, the third start's barrier weight, or `flip` for
+    the starts steered to a binding obstacle's far side (`portfolio_flip`)."""
+    if st.get("flip") is not None:
+        return "flip"
     mu = st.get("barrier_mu_init")
     return st["warm_up"] if mu is None else f"{st['warm_up']} (mu_init {mu:g})"
 

@@ -118,13 +118,21 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "--hard-barrier",
         action="store_true",
         help="ddpkit with SafeCddpSolver(barrier_mu_init=3e-3, barrier_relaxation=1e-6, portfolio_third_mu=0.03, "
-        "portfolio_new_side=None): the hard barrier starts of the default before the soft barrier (2026-12-05)",
+        "portfolio_new_side=None, portfolio_flip=None): the hard barrier starts of the default before the soft "
+        "barrier (2026-12-05)",
     )
     ap.add_argument(
         "--no-new-side",
         action="store_true",
         help="ddpkit with SafeCddpSolver(portfolio_new_side=None): no third start where the first two starts "
         "agree (the default before 2026-12-05, night)",
+    )
+    ap.add_argument(
+        "--no-flip",
+        action="store_true",
+        help="ddpkit with SafeCddpSolver(portfolio_flip=None): no flipped starts (the other side of each binding "
+        "obstacle where the kept solution costs well above the obstacle-free optimum; the default before "
+        "2026-12-06)",
     )
     ap.add_argument(
         "--portfolio-threads",
@@ -141,11 +149,19 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
     others keep the library's defaults)."""
     options: dict[str, Any] = {"portfolio_threads": args.portfolio_threads}
     if args.hard_barrier:
-        options.update(barrier_mu_init=3e-3, barrier_relaxation=1e-6, portfolio_third_mu=0.03, portfolio_new_side=None)
+        options.update(
+            barrier_mu_init=3e-3,
+            barrier_relaxation=1e-6,
+            portfolio_third_mu=0.03,
+            portfolio_new_side=None,
+            portfolio_flip=None,
+        )
     if args.two_starts:
         options.update(portfolio_third_mu=None, portfolio_polish=False)
     if args.no_new_side:
         options["portfolio_new_side"] = None
+    if args.no_flip:
+        options["portfolio_flip"] = None
     if args.apart is not None:
         options["portfolio_apart"] = args.apart
     if args.barrier_funnel is not None:

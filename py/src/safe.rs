@@ -813,6 +813,7 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("portfolio_threads", s.portfolio_threads)?;
     d.set_item("portfolio_third_mu", s.portfolio_third_mu)?;
     d.set_item("portfolio_apart", s.portfolio_apart)?;
+    d.set_item("portfolio_flip", s.portfolio_flip)?;
     d.set_item(
         "barrier_funnel",
         s.barrier_funnel.is_finite().then_some(s.barrier_funnel),
@@ -847,6 +848,7 @@ fn settings_from(
     portfolio_threads: i64,
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
+    portfolio_flip: Option<f64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -896,6 +898,7 @@ fn settings_from(
         portfolio_threads,
         portfolio_third_mu,
         portfolio_apart,
+        portfolio_flip,
         // `None`: no limit.
         barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
         barrier_mu_init,
@@ -1112,6 +1115,7 @@ impl SafeCddpSolver {
                         portfolio_threads = Settings::default().portfolio_threads as i64,
                         portfolio_third_mu = Settings::default().portfolio_third_mu,
                         portfolio_apart = Settings::default().portfolio_apart,
+                        portfolio_flip = Settings::default().portfolio_flip,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -1121,7 +1125,7 @@ impl SafeCddpSolver {
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
     )]
     #[allow(clippy::too_many_arguments)]
@@ -1139,6 +1143,7 @@ impl SafeCddpSolver {
         #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
         portfolio_third_mu: Option<f64>,
         portfolio_apart: f64,
+        portfolio_flip: Option<f64>,
         barrier_funnel: Option<f64>,
         barrier_mu_init: f64,
         barrier_relaxation: f64,
@@ -1156,6 +1161,7 @@ impl SafeCddpSolver {
             portfolio_threads,
             portfolio_third_mu,
             portfolio_apart,
+            portfolio_flip,
             barrier_funnel,
             barrier_mu_init,
             barrier_relaxation,
@@ -1337,8 +1343,9 @@ pub struct SafeSolution {
     /// The starts of a ``"portfolio"`` cold solve in the order they ran (empty otherwise), each a
     /// dict: ``warm_up`` (``"augmented_lagrangian"``, ``"barrier"``, or ``"polish"`` for the
     /// KKT/QP iterations from the kept solution), ``barrier_mu_init`` (the third start's initial
-    /// barrier weight, else ``None``), ``iterations``, ``cost``, ``max_violation`` (tightened
-    /// rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
+    /// barrier weight, else ``None``), ``flip`` (for a flipped start, ``portfolio_flip``: the
+    /// index of the constraint whose other side it was steered to, else ``None``),
+    /// ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
     /// on from it), ``"discarded"`` or ``"same_side"`` (stopped at the end of its homotopy on the
     /// kept solution's sides).
     #[pyo3(get)]
@@ -1442,6 +1449,7 @@ impl SafeSolution {
                 },
             )?;
             d.set_item("barrier_mu_init", st.barrier_mu_init)?;
+            d.set_item("flip", st.flip)?;
             d.set_item("iterations", st.iterations)?;
             d.set_item("cost", st.cost)?;
             d.set_item("max_violation", st.max_violation)?;
@@ -1642,6 +1650,7 @@ impl Mpc {
             d.portfolio_threads as i64,
             d.portfolio_third_mu,
             d.portfolio_apart,
+            d.portfolio_flip,
             Some(d.barrier_funnel),
             d.barrier_mu_init,
             d.barrier_relaxation,
@@ -1948,6 +1957,7 @@ where
                     portfolio_threads = Settings::default().portfolio_threads as i64,
                     portfolio_third_mu = Settings::default().portfolio_third_mu,
                     portfolio_apart = Settings::default().portfolio_apart,
+                        portfolio_flip = Settings::default().portfolio_flip,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -1956,7 +1966,7 @@ where
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -1976,6 +1986,7 @@ fn solve_batch_safe(
     #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_threads: i64,
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
+    portfolio_flip: Option<f64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -1992,6 +2003,7 @@ fn solve_batch_safe(
         portfolio_threads,
         portfolio_third_mu,
         portfolio_apart,
+        portfolio_flip,
         barrier_funnel,
         barrier_mu_init,
         barrier_relaxation,

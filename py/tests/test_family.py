@@ -184,10 +184,12 @@ def test_where_the_first_two_agree_a_third_start_on_another_side_escapes_their_o
     assert spec["name"] == "car-s1-i22-a0"
     p = parse(spec)
     ipopt = 0.47750011380348567
-    off = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "1", "--no-new-side"]))
+    # Without the flipped starts, which find the same optimum from the kept solution.
+    args = ["--problems", "3", "--seed", "1", "--no-new-side", "--no-flip"]
+    off = solve.safe_options_of(family.build_parser().parse_args(args))
     assert off["portfolio_new_side"] is None
     before = solve.DdpkitSolver(p, safe_options=off).solve()
-    after = solve.DdpkitSolver(p, safe_options={}).solve()
+    after = solve.DdpkitSolver(p, safe_options={"portfolio_flip": None}).solve()
     assert before.max_violation <= 1e-6 and after.max_violation <= 1e-6
     assert before.cost > 2 * ipopt
     assert after.status == "converged" and after.cost <= ipopt * (1 + 1e-6)
@@ -197,3 +199,38 @@ def test_where_the_first_two_agree_a_third_start_on_another_side_escapes_their_o
     assert again == solver and again != solve.DdpkitSolver(p, safe_options={}).constrained
     with pytest.raises(ValueError, match="portfolio_new_side"):
         solve.DdpkitSolver(p, safe_options={"portfolio_new_side": -1.0})
+
+
+def test_a_flipped_start_finds_the_way_between_the_obstacles() -> None:
+    # car-s1-i21-a0 (bench/results/family_s1_210_side.json): every start before the flipped ones
+    # goes round the second obstacle at 4.438, 73 % above the peers' optimum between the two;
+    # with `portfolio_flip` (the default, 1.5) a start steered to that obstacle's far side
+    # reaches it.
+    import pickle
+
+    import ddpkit
+    import solve
+
+    assert ddpkit.default_settings("SafeCddpSolver")["portfolio_flip"] == 1.5
+    spec = family.generate("car", 1, 21)
+    assert spec["name"] == "car-s1-i21-a0"
+    p = parse(spec)
+    fatrop = 2.5615841384740934
+    off = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "1", "--no-flip"]))
+    assert off["portfolio_flip"] is None
+    before = solve.DdpkitSolver(p, safe_options=off).solve()
+    after = solve.DdpkitSolver(p, safe_options={}).solve()
+    assert before.max_violation <= 1e-6 and after.max_violation <= 1e-6
+    assert before.cost > 1.5 * fatrop
+    assert after.status == "converged" and after.cost <= fatrop * (1 + 1e-6)
+    # The report names the flipped starts and which one was kept.
+    solver = solve.DdpkitSolver(p, safe_options={}).constrained
+    starts = solver.solve().starts
+    flips = [st for st in starts if st["flip"] is not None]
+    assert len(flips) == 2 and sum(st["outcome"] == "kept" for st in flips) == 1
+    assert all(st["flip"] is None for st in starts[: len(starts) - 2])
+    # The setting pickles with the solver; a factor below 1 is an error naming it.
+    again = pickle.loads(pickle.dumps(solver))
+    assert again == solver and again != solve.DdpkitSolver(p, safe_options=off).constrained
+    with pytest.raises(ValueError, match="portfolio_flip"):
+        solve.DdpkitSolver(p, safe_options={"portfolio_flip": 0.5})

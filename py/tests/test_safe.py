@@ -390,7 +390,13 @@ def test_the_barrier_funnel_keeps_the_way_around_a_wall_of_obstacles() -> None:
     # The hard barrier of earlier versions (outside every obstacle from the first step), with
     # their patient inner augmented-Lagrangian solves: without the funnel both portfolio starts
     # stop at the wall.
-    hard = {"barrier_mu_init": 3e-3, "barrier_relaxation": 1e-6, "portfolio_third_mu": 0.03, "al_inner_progress": 0.0}
+    hard = {
+        "barrier_mu_init": 3e-3,
+        "barrier_relaxation": 1e-6,
+        "portfolio_third_mu": 0.03,
+        "al_inner_progress": 0.0,
+        "portfolio_flip": None,
+    }
     solver = ddpkit.SafeCddpSolver(problem, obstacles, barrier_funnel=None, **hard)
     stalled = solver.solve()
     assert stalled.max_violation <= 1e-6 and stalled.cost > 10 * ipopt

@@ -11,7 +11,8 @@
 //! Environment: `THIRD_MU=MU` sets the portfolio's third start (`Settings::portfolio_third_mu`;
 //! 0: none), `POLISH=0|1` its polish (`Settings::portfolio_polish`), `APART=GAP` when they run
 //! (`Settings::portfolio_apart`), `NEW_SIDE=F` the third start where the first two agree
-//! (`Settings::portfolio_new_side`; 0: none), `THREADS=2` its concurrent starts
+//! (`Settings::portfolio_new_side`; 0: none), `FLIP=F`, `FLIP_GUIDE=K` the flipped starts
+//! (`Settings::portfolio_flip`, `portfolio_flip_guide`; 0: none), `THREADS=2` its concurrent starts
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
 //! the augmented Lagrangian, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
@@ -77,6 +78,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = env("NEW_SIDE") {
         // 0: none.
         s.portfolio_new_side = (v > 0.0).then_some(v);
+    }
+    if let Some(v) = env("FLIP") {
+        // 0: none.
+        s.portfolio_flip = (v > 0.0).then_some(v);
+    }
+    if let Some(v) = env("FLIP_GUIDE") {
+        s.portfolio_flip_guide = v as usize;
     }
     if let Some(v) = env("APART") {
         s.portfolio_apart = v;

@@ -10,10 +10,14 @@ fn main() -> ddp_core::Result<()> {
         for warm_up in [WarmUp::Portfolio, WarmUp::Barrier, WarmUp::AugmentedLagrangian] {
             let p = BenchmarkProblem::from_file(format!("{dir}/{file}"))?;
             let (problem, constraints) = p.car_or_point()?;
-            let settings = Settings {
+            let mut settings = Settings {
                 warm_up,
                 ..Settings::default()
             };
+            // FLIP=0: no flipped starts (`Settings::portfolio_flip`).
+            if let Some(f) = std::env::var("FLIP").ok().and_then(|v| v.parse::<f64>().ok()) {
+                settings.portfolio_flip = (f > 0.0).then_some(f);
+            }
             let mut solver = SafeCddpSolver::new(&problem, constraints, settings)?;
             let report = solver.solve(&problem)?;
             if std::env::var("TABLE").is_ok() {

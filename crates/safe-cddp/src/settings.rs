@@ -36,8 +36,10 @@ pub enum WarmUp {
     /// ([`Settings::portfolio_third_mu`]) and a restart from the kept solution
     /// ([`Settings::portfolio_polish`]) follow; where they agree on a poor cost, the third start
     /// goes on only if its homotopy takes another side of the obstacles
-    /// ([`Settings::portfolio_new_side`]). Warm starts and solves with a
-    /// [`crate::Tightening`] use [`WarmUp::Barrier`]'s rule.
+    /// ([`Settings::portfolio_new_side`]). Last, where the kept solution costs well above the
+    /// optimum without the constraints, one start per binding obstacle steered to its far side
+    /// ([`Settings::portfolio_flip`]). Warm starts and solves with a [`crate::Tightening`] use
+    /// [`WarmUp::Barrier`]'s rule.
     Portfolio,
 }
 
@@ -189,6 +191,22 @@ pub struct Settings {
     /// `bench/peers/family.py`: the longer of the two starts instead of their sum). 1 (the
     /// default): one thread.
     pub portfolio_threads: usize,
+    /// [`WarmUp::Portfolio`]: where the kept solution (feasible) costs more than this factor
+    /// times the optimum of the problem without its constraints (from the same initial guess;
+    /// above it by more than the factor minus one of that cost's magnitude), one more start per
+    /// binding state row of the kept solution (a positive multiplier or a zero value somewhere),
+    /// steered to the row's far side: an augmented-Lagrangian start from the initial guess with
+    /// a guide row (a half-space past the far boundary along the row's gradient, at the time the
+    /// row is most active) for [`Settings::portfolio_flip_guide`] iterations, then without it to
+    /// its own optimum, kept when better. When every start chose the poor side of a binding
+    /// obstacle (a path round a whole cluster, where a cheaper one passes between two), only a
+    /// start on the other side escapes. Only on solves over the problem's whole horizon (not
+    /// after [`crate::SafeCddpSolver::set_horizon`] to a shorter one). `None`: no flipped
+    /// starts. See `bench/peers/README.md`,
+    /// "The other side of each binding obstacle".
+    pub portfolio_flip: Option<f64>,
+    /// [`Settings::portfolio_flip`]: the iterations a flipped start keeps its guide row.
+    pub portfolio_flip_guide: usize,
     /// Initial `rho` of the warm-up.
     pub al_rho_init: f64,
     /// Factor on `rho` when the violation did not fall to a quarter.
@@ -294,6 +312,8 @@ impl Default for Settings {
             portfolio_polish: true,
             portfolio_new_side: Some(1.2),
             portfolio_threads: 1,
+            portfolio_flip: Some(1.5),
+            portfolio_flip_guide: 25,
             al_rho_init: 10.0,
             al_rho_factor: 10.0,
             al_rho_max: 1e8,
@@ -462,6 +482,17 @@ impl Settings {
         if let Some(factor) = self.portfolio_new_side {
             check("portfolio_new_side", finite_pos(factor), factor, "finite and > 0")?;
         }
+        if let Some(factor) = self.portfolio_flip {
+            check(
+                "portfolio_flip",
+                factor.is_finite() && factor >= 1.0,
+                factor,
+                "finite and >= 1",
+            )?;
+        }
+        if self.portfolio_flip_guide == 0 {
+            return Err(Error::invalid("settings.portfolio_flip_guide", "must be at least 1"));
+        }
         check(
             "barrier_relaxation",
             finite_pos(self.barrier_relaxation),
@@ -591,6 +622,9 @@ pub struct StartReport {
     /// The barrier's initial `mu` where it is not [`Settings::barrier_mu_init`] (the third start,
     /// [`Settings::portfolio_third_mu`]).
     pub barrier_mu_init: Option<f64>,
+    /// For a flipped start ([`Settings::portfolio_flip`]): the index of the state constraint
+    /// whose other side it was steered to.
+    pub flip: Option<usize>,
     /// Accepted steps.
     pub iterations: usize,
     /// Cost where it ended.
@@ -604,8 +638,12 @@ pub struct StartReport {
 }
 
 impl StartReport {
-    /// `"augmented_lagrangian"`, `"barrier"`, `"barrier (mu_init 3.0e-3)"` or `"polish"`.
+    /// `"augmented_lagrangian"`, `"barrier"`, `"barrier (mu_init 3.0e-3)"`, `"polish"` or
+    /// `"flip (constraint 2)"`.
     pub fn name(&self) -> String {
+        if let Some(j) = self.flip {
+            return format!("flip (constraint {j})");
+        }
         match (self.warm_up, self.barrier_mu_init) {
             (WarmUp::None, _) => "polish".to_string(),
             (w, Some(mu)) => format!("{} (mu_init {mu:.1e})", w.as_str()),

@@ -27,6 +27,7 @@ fn hard_barrier() -> Settings {
         al_inner_progress: 0.0,
         al_near_margin: 0.0,
         portfolio_new_side: None,
+        portfolio_flip: None,
         ..Settings::default()
     }
 }
@@ -192,11 +193,16 @@ const CAR_S1_I12: &str = r#"{"name": "car-s1-i12-a0", "model": "car", "dt": 0.05
 
 #[test]
 fn where_the_first_two_agree_a_third_start_on_another_side_escapes_their_optimum() {
-    let off = Settings {
-        portfolio_new_side: None,
+    // Without the flipped starts, which find the same optimum from the kept solution.
+    let on = Settings {
+        portfolio_flip: None,
         ..Settings::default()
     };
-    let (before, after) = (solve_json(CAR_S1_I22, off), solve_json(CAR_S1_I22, Settings::default()));
+    let off = Settings {
+        portfolio_new_side: None,
+        ..on
+    };
+    let (before, after) = (solve_json(CAR_S1_I22, off), solve_json(CAR_S1_I22, on));
     assert_eq!((before.status, after.status), (Status::Converged, Status::Converged));
     assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
     assert!(before.cost > 2.0 * IPOPT_I22, "without: {}", before.cost);
@@ -204,7 +210,7 @@ fn where_the_first_two_agree_a_third_start_on_another_side_escapes_their_optimum
     // On the kept solution's side the third start stops where its homotopy ends: the solution
     // is the one without it, bit for bit, for a few discarded iterations (one barrier
     // subproblem of at most `barrier_inner_iterations`).
-    let (before, after) = (solve_json(CAR_S1_I12, off), solve_json(CAR_S1_I12, Settings::default()));
+    let (before, after) = (solve_json(CAR_S1_I12, off), solve_json(CAR_S1_I12, on));
     assert_eq!(before.cost.to_bits(), after.cost.to_bits());
     assert_eq!(before.iterations, after.iterations);
     let extra = after.discarded_iterations - before.discarded_iterations;

@@ -762,6 +762,7 @@ def solve_batch_safe(
     portfolio_threads: int = 1,
     portfolio_third_mu: Optional[float] = 0.003,
     portfolio_apart: float = 1e-3,
+    portfolio_flip: Optional[float] = 1.5,
     barrier_funnel: Optional[float] = 0.03,
     barrier_mu_init: float = 0.03,
     barrier_relaxation: float = 0.1,
@@ -1381,6 +1382,11 @@ class SafeCddpSolver:
     some obstacle on another side than the kept solution (the unit gradient of a state row at
     its most active state more than 90 degrees from the kept solution's): two starts that agree
     can share a poor optimum (``None``: no third start there).
+    Where the kept solution costs more than ``portfolio_flip`` times the optimum without the
+    constraints (from the same guess), one more start per binding state row, steered to its
+    far side (a guide half-space past the row's far boundary along its gradient, for 25
+    augmented-Lagrangian iterations from the guess, then lifted) and kept when better: a path
+    between two obstacles where every other start went round them (``None``: none).
     ``portfolio_threads``: 1, or 2 to run the portfolio's first two starts at once on two
     threads (the same solution and iterations, less wall time). ``barrier_funnel`` (``None``: no
     limit): after the barrier hands over, the augmented Lagrangian's trial steps may not pass
@@ -1413,6 +1419,7 @@ class SafeCddpSolver:
         portfolio_threads: int = 1,
         portfolio_third_mu: Optional[float] = 0.003,
         portfolio_apart: float = 1e-3,
+        portfolio_flip: Optional[float] = 1.5,
         barrier_funnel: Optional[float] = 0.03,
         barrier_mu_init: float = 0.03,
         barrier_relaxation: float = 0.1,
@@ -1501,7 +1508,8 @@ class SafeSolution:
         """The starts of a ``"portfolio"`` cold solve in the order they ran (empty otherwise),
         each a dict: ``warm_up`` (``"augmented_lagrangian"``, ``"barrier"``, or ``"polish"`` for
         the KKT/QP iterations from the kept solution), ``barrier_mu_init`` (the third start's
-        initial barrier weight, else ``None``), ``iterations``, ``cost``, ``max_violation``
+        initial barrier weight, else ``None``), ``flip`` (a flipped start's constraint index,
+        ``portfolio_flip``, else ``None``), ``iterations``, ``cost``, ``max_violation``
         (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the
         polish went on from it), ``"discarded"`` or ``"same_side"`` (stopped at the end of its
         homotopy on the kept solution's sides). The ``"kept"`` and ``"polished"`` starts'

@@ -60,6 +60,7 @@
 //! | `epsilon` (active set) | [`Settings::active_threshold`] | §III-A |
 //! | `n1`, `n2` | [`crate::mpc::MpcSettings::iterations`], [`crate::Tightening::update_every`] | Alg. 1 |
 
+mod flip;
 mod forward;
 mod rows;
 mod sides;
@@ -74,6 +75,7 @@ use ddp_core::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
 use ddp_core::solver::{armijo_accepts, line_search, BackwardOptions, Core, Trial};
 use ddp_core::{Error, Problem, Result};
 
+use self::flip::Flips;
 use self::forward::{Forward, ForwardQp};
 use self::rows::{Merit, Rows, Slot, Violation};
 use self::sides::Sides;
@@ -202,6 +204,8 @@ where
     pub(super) relaxed_cost: f64,
     /// The starts of this solve so far (the report's [`Report::starts`]).
     starts: Vec<StartReport>,
+    /// [`Settings::portfolio_flip`]: the flipped starts' solver and buffers.
+    flips: Flips<NX, NU>,
 }
 
 impl<NX: Dim, NU: Dim> std::fmt::Debug for SafeCddpSolver<NX, NU>
@@ -269,6 +273,12 @@ where
         let state_rows = slots.iter().filter(|s| !s.mixed).map(|s| s.dim).sum();
         let rows = Rows::new(dims, slots, cap);
         let m = rows.m;
+        // Room in the reports for every start, the flipped ones too (one per state row).
+        let report = || {
+            let mut r = Report::new(settings.max_iterations + 1);
+            r.starts.reserve_exact(MAX_STARTS + state_rows);
+            r
+        };
         Ok(Self {
             settings,
             cap,
@@ -290,11 +300,11 @@ where
                 iteration: 0,
                 accepted_in_warm_up: false,
             },
-            report: Report::new(settings.max_iterations + 1),
+            report: report(),
             portfolio: Portfolio {
                 guess: vec![dims.u_zeros(); cap],
                 best: vec![dims.u_zeros(); cap],
-                report: Report::new(settings.max_iterations + 1),
+                report: report(),
                 member: None,
                 mu_init: None,
                 best_in_warm_up: false,
@@ -303,7 +313,8 @@ where
                 side_test: false,
                 same_side: false,
                 relaxed_cost: f64::NAN,
-                starts: Vec::with_capacity(MAX_STARTS),
+                starts: Vec::with_capacity(MAX_STARTS + state_rows),
+                flips: Flips::new(dims, max_dim, state_rows),
             },
         })
     }
@@ -655,6 +666,7 @@ where
             let mut entry = StartReport {
                 warm_up,
                 barrier_mu_init,
+                flip: None,
                 iterations: r.iterations,
                 cost: r.cost,
                 max_violation: r.max_violation_tightened,
@@ -708,27 +720,37 @@ where
         }
         let p = &mut self.portfolio;
         std::mem::swap(&mut self.report, &mut p.report);
-        if !live_is_best {
-            // Back to the kept solution: its trajectory, and the gains and multipliers of a
-            // backward pass there (what its solve ended with).
-            self.core.traj.us[..n].clone_from_slice(&p.best[..n]);
-            self.core.rollout(problem);
-            self.warm.active = false;
-            self.it.moved = true;
-            self.linearize_now(problem);
-            let _ = self.compute_direction(problem);
-            self.warm.lambda.copy_from_slice(&self.rows.lambda);
-            self.refresh_merit();
-        }
-        let p = &mut self.portfolio;
         p.member = None;
         p.mu_init = None;
+        if !live_is_best {
+            self.restore_best(problem);
+        }
+        // Where the kept solution costs well above the obstacle-free optimum, the other side of
+        // each binding row (`Settings::portfolio_flip`).
+        if self.flip_starts(problem, &mut discarded, &mut discarded_qps)? {
+            self.restore_best(problem);
+        }
+        let p = &mut self.portfolio;
         self.report.starts.clear();
         self.report.starts.extend_from_slice(&p.starts);
         self.report.discarded_iterations = discarded;
         self.report.qp += discarded_qps;
         self.report.solve_time = start.elapsed();
         Ok(())
+    }
+
+    /// Back to the portfolio's kept solution (`portfolio.best`): its trajectory, and the gains
+    /// and multipliers of a backward pass there (what its solve ended with).
+    fn restore_best(&mut self, problem: &Problem<NX, NU>) {
+        let n = self.core.n;
+        self.core.traj.us[..n].clone_from_slice(&self.portfolio.best[..n]);
+        self.core.rollout(problem);
+        self.warm.active = false;
+        self.it.moved = true;
+        self.linearize_now(problem);
+        let _ = self.compute_direction(problem);
+        self.warm.lambda.copy_from_slice(&self.rows.lambda);
+        self.refresh_merit();
     }
 
     /// After the portfolio's first two starts (the kept one's report in `portfolio.report`, the

@@ -31,6 +31,8 @@ where
     worst: Vec<(f64, usize)>,
     /// The kept solution's unit gradients (`nx` per state row), valid when `kept_valid`.
     pub kept: Vec<f64>,
+    /// The kept solution's `(largest value, its time)` per state row, with `kept`.
+    pub kept_at: Vec<(f64, usize)>,
     pub kept_valid: bool,
     /// The unit gradients of the last measurement of the running start.
     pub now: Vec<f64>,
@@ -49,6 +51,7 @@ where
             gu: vec![dims.u_zeros(); max_dim],
             worst: vec![(f64::NEG_INFINITY, 1); max_dim],
             kept: Vec::with_capacity(len),
+            kept_at: Vec::with_capacity(state_rows),
             kept_valid: false,
             now: Vec::with_capacity(len),
         }
@@ -56,7 +59,8 @@ where
 
     /// Writes the sides of `xs` (`n + 1` states) to `kept` (or `now`): for every row of every
     /// state-only constraint (in the order of `slots`), the unit gradient at the state of
-    /// `x_1 .. x_N` where the row is largest (zeros where the gradient is zero or not finite).
+    /// `x_1 .. x_N` where the row is largest (zeros where the gradient is zero or not finite);
+    /// into `kept`, also that largest value and its time (`kept_at`).
     pub fn measure(
         &mut self,
         constraints: &[Arc<dyn Constraint<NX, NU>>],
@@ -68,6 +72,9 @@ where
     ) {
         let mut out = std::mem::take(if into_kept { &mut self.kept } else { &mut self.now });
         out.clear();
+        if into_kept {
+            self.kept_at.clear();
+        }
         let states = n > 0 && xs.len() > n;
         for (c, slot) in constraints.iter().zip(slots).filter(|_| states) {
             if slot.mixed || slot.dim == 0 {
@@ -85,6 +92,9 @@ where
             }
             for r in 0..d {
                 let t = self.worst[r].1;
+                if into_kept {
+                    self.kept_at.push(self.worst[r]);
+                }
                 let (g, gx, gu) = (&mut self.g[..d], &mut self.gx[..d], &mut self.gu[..d]);
                 c.jacobians(t, &xs[t], zero_u, g, gx, gu);
                 let norm = gx[r].norm();

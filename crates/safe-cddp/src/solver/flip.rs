@@ -1,0 +1,375 @@
+//! The portfolio's flipped starts ([`crate::Settings::portfolio_flip`]): where the kept solution
+//! costs well above the obstacle-free optimum, one more start per binding state row, steered to
+//! the row's far side.
+//!
+//! The local optima of an obstacle problem differ first by the side of each obstacle the path
+//! takes, and the starts before this one choose the sides on their own way in: the augmented
+//! Lagrangian pushes each knot out of the nearest side, the barrier homotopy keeps to the side it
+//! begins on. When all of them choose a poor side of a binding obstacle, the better way round is
+//! the other side of it (the family's misses by more than 5 %: a cheaper path between two
+//! obstacles, or round a whole cluster). A guide row steers a start there: a half-space
+//! `a' x_t >= b` at the time `t` where the row is most active on the kept trajectory, with `a`
+//! the row's unit gradient there (into the obstacle) and `b` placing `x_t` a tenth beyond the
+//! point where the line along `a` leaves the obstacle again. It is read from the constraint
+//! itself, so every state constraint has one. An augmented-Lagrangian start from the initial
+//! guess runs [`crate::Settings::portfolio_flip_guide`] iterations with the guide row, then the
+//! guide is lifted and the start goes on, its multipliers and penalty kept, to its own optimum,
+//! which is kept when better.
+
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::Arc;
+
+use ddp_core::dims::{Alloc, DefaultAllocator, Dim, VectorN};
+use ddp_core::{Problem, Result};
+
+use super::rows::Slot;
+use super::{better, SafeCddpSolver};
+use crate::settings::{StartOutcome, StartReport, WarmUp};
+use crate::Constraint;
+
+/// The guide row: `b - a' x_t <= 0` at one time `t`, `-1` (inactive) at every other time and
+/// when lifted. Its fields are atomics so that the solver can move it between starts through the
+/// shared `Arc` its guide solver holds.
+#[derive(Debug)]
+pub(crate) struct GuideRow {
+    /// The time it binds (`usize::MAX`: lifted).
+    t: AtomicUsize,
+    /// `b` as bits.
+    b: AtomicU64,
+    /// `a` as bits, `nx` entries.
+    a: Vec<AtomicU64>,
+}
+
+impl GuideRow {
+    fn new(nx: usize) -> Self {
+        Self {
+            t: AtomicUsize::new(usize::MAX),
+            b: AtomicU64::new(0),
+            a: (0..nx).map(|_| AtomicU64::new(0)).collect(),
+        }
+    }
+
+    fn set(&self, t: usize, a: &[f64], b: f64) {
+        for (slot, &v) in self.a.iter().zip(a) {
+            slot.store(v.to_bits(), Ordering::Relaxed);
+        }
+        self.b.store(b.to_bits(), Ordering::Relaxed);
+        self.t.store(t, Ordering::Relaxed);
+    }
+
+    fn lift(&self) {
+        self.t.store(usize::MAX, Ordering::Relaxed);
+    }
+
+    fn a(&self, i: usize) -> f64 {
+        f64::from_bits(self.a[i].load(Ordering::Relaxed))
+    }
+}
+
+impl<NX: Dim, NU: Dim> Constraint<NX, NU> for GuideRow
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn dim(&self) -> usize {
+        1
+    }
+
+    fn depends_on_control(&self) -> bool {
+        false
+    }
+
+    fn evaluate(&self, t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, g: &mut [f64]) {
+        g[0] = if t == self.t.load(Ordering::Relaxed) {
+            let ax: f64 = x.iter().enumerate().map(|(i, &xi)| self.a(i) * xi).sum();
+            f64::from_bits(self.b.load(Ordering::Relaxed)) - ax
+        } else {
+            -1.0
+        };
+    }
+
+    fn jacobians(
+        &self,
+        t: usize,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        g: &mut [f64],
+        g_x: &mut [VectorN<NX>],
+        g_u: &mut [VectorN<NU>],
+    ) {
+        <Self as Constraint<NX, NU>>::evaluate(self, t, x, u, g);
+        let on = t == self.t.load(Ordering::Relaxed);
+        for (i, e) in g_x[0].iter_mut().enumerate() {
+            *e = if on { -self.a(i) } else { 0.0 };
+        }
+        g_u[0].fill(0.0);
+    }
+}
+
+/// The buffers of the flipped starts, built at the first solve that runs one.
+pub(super) struct Flips<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// The solver of the flipped starts: this one's constraints and the guide row (whose
+    /// relative degree is the first element), on the same row layout.
+    guide: Option<(usize, Box<SafeCddpSolver<NX, NU>>)>,
+    row: Arc<GuideRow>,
+    /// The obstacle-free problem's solver (the gate's reference cost).
+    free: Option<Box<ddp_core::Solver<NX, NU>>>,
+    /// `(multiplier sum, constraint, row, state row)` of each binding state row, in the order
+    /// tried.
+    binding: Vec<(f64, usize, usize, usize)>,
+    /// Scratch: one constraint's values; the guide's `a`.
+    g: Vec<f64>,
+    a: Vec<f64>,
+}
+
+impl<NX: Dim, NU: Dim> Flips<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    pub fn new(dims: ddp_core::Dims<NX, NU>, max_dim: usize, state_rows: usize) -> Self {
+        Self {
+            guide: None,
+            row: Arc::new(GuideRow::new(dims.nx())),
+            free: None,
+            binding: Vec::with_capacity(state_rows),
+            g: vec![0.0; max_dim.max(1)],
+            a: vec![0.0; dims.nx()],
+        }
+    }
+}
+
+impl<NX: Dim, NU: Dim> std::fmt::Debug for Flips<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Flips")
+            .field("built", &self.guide.is_some())
+            .field("binding", &self.binding)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The first step along the row's gradient, and its growth per step, of the search for the far
+/// boundary.
+const EXIT_STEP: f64 = 1e-2;
+const EXIT_GROWTH: f64 = 1.1;
+const EXIT_STEPS: usize = 200;
+/// The guide's target: this factor times the distance to the far boundary.
+const BEYOND: f64 = 1.1;
+/// Iterations of the obstacle-free solve of the gate (5-7 on P2 and P3, at most 30 on 95 % of the
+/// family's problems).
+const FREE_ITERATIONS: usize = 50;
+
+impl<NX: Dim, NU: Dim> SafeCddpSolver<NX, NU>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// Whether the kept solution (this solver's state and report) costs more than
+    /// [`crate::Settings::portfolio_flip`] times the obstacle-free optimum's cost from the
+    /// initial guess (more than that factor minus one of its magnitude above it, for any sign).
+    fn flip_gate(&mut self, problem: &Problem<NX, NU>, factor: f64) -> Result<bool> {
+        let n = self.core.n;
+        let f = &mut self.portfolio.flips;
+        let rebuild = f.free.as_ref().is_none_or(|s| s.horizon() != n);
+        if rebuild {
+            // A truncated solve's cost is above the optimum's, so the gate errs towards no flips.
+            let settings = ddp_core::Settings {
+                max_iterations: FREE_ITERATIONS,
+                ..ddp_core::Settings::default()
+            };
+            f.free = Some(Box::new(ddp_core::Solver::new(problem, settings)?));
+        }
+        let free = f.free.as_deref_mut().expect("built above");
+        free.set_controls(&self.portfolio.guess[..n])?;
+        let j0 = free.solve(problem)?.cost;
+        let kept = self.report.cost;
+        Ok(j0.is_finite() && kept > j0 + (factor - 1.0) * j0.abs())
+    }
+
+    /// The binding state rows of the kept solution (a positive multiplier at some knot, or a
+    /// largest value within the constraint tolerance of zero), most costly first; reads the
+    /// kept solution's sides (`portfolio.sides`, measured before).
+    fn binding_rows(&mut self) {
+        let n = self.core.n;
+        let m = self.rows.m;
+        let tol = self.settings.constraint_tolerance;
+        let (f, sides) = (&mut self.portfolio.flips, &self.portfolio.sides);
+        f.binding.clear();
+        let state = self.rows.slots.iter().enumerate().filter(|(_, s)| !s.mixed);
+        let rows = state.flat_map(|(j, slot)| (0..slot.dim).map(move |r| (j, slot, r)));
+        for (i, (j, slot, r)) in rows.enumerate() {
+            let lam: f64 = (0..slot.knots(n))
+                .map(|k| self.rows.lambda[k * m + slot.offset + r])
+                .sum();
+            if lam > 0.0 || sides.kept_at[i].0 >= -tol {
+                f.binding.push((lam, j, r, i));
+            }
+        }
+        // Most costly first; ties by position, so the order is the same on every run.
+        f.binding.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.3.cmp(&b.3)));
+    }
+
+    /// The guide row for row `r` of constraint `j`, state row `i`, on the kept trajectory:
+    /// `(t, b)` with `a` the row's unit gradient at its most active time `t` (`sides.kept`), or
+    /// `None` when the row has no far side along it (a half-plane, a zero gradient).
+    fn guide_for(&mut self, j: usize, r: usize, i: usize) -> Option<(usize, f64)> {
+        let nx = self.dims().nx();
+        let d = self.rows.slots[j].dim;
+        let c = &self.constraints[j];
+        let (f, sides) = (&mut self.portfolio.flips, &self.portfolio.sides);
+        let a = &sides.kept[i * nx..(i + 1) * nx];
+        let t = sides.kept_at[i].1;
+        let x = &self.core.traj.xs[t];
+        if a.iter().all(|&e| e == 0.0) {
+            return None;
+        }
+        // Along the gradient from x_t: into the obstacle (g > 0), then out of its far side.
+        let mut y = x.clone();
+        let (mut s, mut h, mut inside) = (0.0, EXIT_STEP, false);
+        for _ in 0..EXIT_STEPS {
+            s += h;
+            h *= EXIT_GROWTH;
+            for ((yi, &xi), &ai) in y.iter_mut().zip(x.iter()).zip(a) {
+                *yi = xi + s * ai;
+            }
+            c.evaluate(t, &y, &self.rows.zero_u, &mut f.g[..d]);
+            if f.g[r] > 0.0 {
+                inside = true;
+            } else if inside {
+                f.a.copy_from_slice(a);
+                let b = x.iter().zip(a).map(|(x, a)| a * x).sum::<f64>() + BEYOND * s;
+                return Some((t, b));
+            }
+        }
+        None
+    }
+
+    /// The flipped starts after the portfolio's others, with the kept solution as this solver's
+    /// state and report. Adds the iterations and QPs of the solutions given up to `discarded`
+    /// and `discarded_qps`, and returns whether a flipped start's was kept: its report is then
+    /// this solver's and its controls `portfolio.best`, to be restored.
+    pub(super) fn flip_starts(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        discarded: &mut usize,
+        discarded_qps: &mut crate::qp::QpStats,
+    ) -> Result<bool> {
+        let Some(factor) = self.settings.portfolio_flip else {
+            return Ok(false);
+        };
+        let tol = self.settings.constraint_tolerance;
+        // The gate's obstacle-free solve covers the problem's whole horizon: a solver set to a
+        // shorter one (`set_horizon`) runs no flipped starts.
+        let whole = problem.horizon() == self.core.n;
+        if !whole || self.report.max_violation_tightened > tol || !self.flip_gate(problem, factor)? {
+            return Ok(false);
+        }
+        self.measure_sides(true);
+        self.binding_rows();
+        let n = self.core.n;
+        let mut kept_any = false;
+        for i in 0..self.portfolio.flips.binding.len() {
+            let (_, j, r, row) = self.portfolio.flips.binding[i];
+            // Every guide is read from the solution kept before the flipped starts (this solver's
+            // trajectory: the flipped starts run on the guide solver).
+            let Some((t, b)) = self.guide_for(j, r, row) else {
+                continue;
+            };
+            let degree = self.rows.slots[j].degree;
+            self.prepare_guide(problem, degree)?;
+            let f = &mut self.portfolio.flips;
+            f.row.set(t, &f.a, b);
+            let (_, guide) = f.guide.as_mut().expect("prepared above");
+            guide.core.traj.us[..n].clone_from_slice(&self.portfolio.guess[..n]);
+            guide.forget();
+            guide.portfolio.member = Some(WarmUp::AugmentedLagrangian);
+            guide.settings.max_iterations = self.settings.portfolio_flip_guide;
+            guide.solve_from_start(problem)?;
+            let guided = guide.report.iterations;
+            let guided_qps = guide.report.qp;
+            f.row.lift();
+            guide.settings.max_iterations = self.settings.max_iterations;
+            // Still the augmented Lagrangian (not the barrier of a cold portfolio start), with the
+            // guided iterations' multipliers and penalty.
+            guide.solve_from_start(problem)?;
+            guide.portfolio.member = None;
+            guide.report.iterations += guided;
+            guide.report.qp += guided_qps;
+            let r = &guide.report;
+            let keep = better(r, &self.report, tol);
+            let mut entry = StartReport {
+                warm_up: WarmUp::AugmentedLagrangian,
+                barrier_mu_init: None,
+                flip: Some(j),
+                iterations: r.iterations,
+                cost: r.cost,
+                max_violation: r.max_violation_tightened,
+                status: r.status,
+                outcome: StartOutcome::Discarded,
+            };
+            if keep {
+                if let Some(previous) = self
+                    .portfolio
+                    .starts
+                    .iter_mut()
+                    .find(|s| s.outcome == StartOutcome::Kept)
+                {
+                    previous.outcome = StartOutcome::Discarded;
+                }
+                entry.outcome = StartOutcome::Kept;
+                *discarded += self.report.iterations;
+                *discarded_qps += self.report.qp;
+                self.report.clone_from(&guide.report);
+                self.portfolio.best[..n].clone_from_slice(&guide.core.traj.us[..n]);
+                kept_any = true;
+            } else {
+                *discarded += r.iterations;
+                *discarded_qps += r.qp;
+            }
+            self.portfolio.starts.push(entry);
+        }
+        Ok(kept_any)
+    }
+
+    /// Builds the solver of the flipped starts when there is none or when it no longer matches
+    /// this one (settings, constraints, row layout, horizon, the guide row's degree).
+    fn prepare_guide(&mut self, problem: &Problem<NX, NU>, degree: usize) -> Result<()> {
+        let n = self.core.n;
+        let m = self.constraints.len();
+        let settings = self.settings;
+        let f = &self.portfolio.flips;
+        let matches = f.guide.as_ref().is_some_and(|(deg, s)| {
+            *deg == degree
+                && s.cap == self.cap
+                && s.constraints.len() == m + 1
+                && s.constraints
+                    .iter()
+                    .zip(&self.constraints)
+                    .all(|(a, b)| Arc::ptr_eq(a, b))
+                && s.rows.slots[..m] == self.rows.slots[..]
+        });
+        if !matches {
+            let mut constraints = self.constraints.clone();
+            constraints.push(self.portfolio.flips.row.clone());
+            let mut slots = self.rows.slots.clone();
+            let offset = slots.iter().map(|s| s.offset + s.dim).max().unwrap_or(0);
+            slots.push(Slot {
+                offset,
+                dim: 1,
+                mixed: false,
+                degree,
+            });
+            let guide = Self::with_slots(problem, constraints, settings, slots, self.cap)?;
+            self.portfolio.flips.guide = Some((degree, Box::new(guide)));
+        }
+        let (_, guide) = self.portfolio.flips.guide.as_mut().expect("built above");
+        guide.set_settings(settings)?;
+        if guide.core.n != n {
+            guide.set_horizon(n)?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,180 @@
+//! The portfolio's flipped starts (`Settings::portfolio_flip`): where the kept solution costs
+//! well above the obstacle-free optimum, a start per binding obstacle steered to its far side.
+
+use safe_cddp::benchmark::BenchmarkProblem;
+use safe_cddp::{Report, SafeCddpSolver, Settings, StartOutcome, Status, WarmUp};
+
+/// Problem 21 of the car family, seed 1 (`bench/results/family_s1_210_side.json`): every other
+/// start passes the second obstacle on its far side from the goal, at 4.438, 73 % above the
+/// optimum FATROP and IPOPT find between the two obstacles.
+const CAR_S1_I21: &str = r#"{"name": "car-s1-i21-a0", "model": "car", "dt": 0.0562, "N": 86, "x0": [0.0, 0.0, 0.8392, 0.0], "cost": {"kind": "quad_goal", "x_goal": [1.5542, 4.711, 1.0496, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[0.2283, 0.7209, 0.285], [0.6563, 1.379, 0.3098]]}"#;
+const FATROP_COST: f64 = 2.5615841384740934;
+
+fn solver(
+    json: &str,
+    settings: Settings,
+) -> (
+    ddp_core::Problem<nalgebra::U4, nalgebra::U2>,
+    SafeCddpSolver<nalgebra::U4, nalgebra::U2>,
+) {
+    let bp = BenchmarkProblem::from_json(json).unwrap();
+    let (problem, constraints) = bp.car_or_point().unwrap();
+    let solver = SafeCddpSolver::new(&problem, constraints, settings).unwrap();
+    (problem, solver)
+}
+
+fn solve(json: &str, settings: Settings) -> Report {
+    let (problem, mut s) = solver(json, settings);
+    s.solve(&problem).unwrap().clone()
+}
+
+fn no_flips() -> Settings {
+    Settings {
+        portfolio_flip: None,
+        ..Settings::default()
+    }
+}
+
+#[test]
+fn a_flipped_start_finds_the_way_between_the_obstacles() {
+    let before = solve(CAR_S1_I21, no_flips());
+    let after = solve(CAR_S1_I21, Settings::default());
+    assert_eq!((before.status, after.status), (Status::Converged, Status::Converged));
+    assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
+    assert!(before.cost > 1.5 * FATROP_COST, "without: {}", before.cost);
+    assert!(after.cost <= FATROP_COST * (1.0 + 1e-6), "with: {}", after.cost);
+    // The report: the flipped starts follow the others, one per binding obstacle (both bind
+    // here), and the kept one is a flipped start; the iterations add up.
+    let flips: Vec<_> = after.starts.iter().filter(|s| s.flip.is_some()).collect();
+    assert_eq!(flips.len(), 2, "{}", after.table());
+    assert!(flips.iter().all(|s| s.warm_up == WarmUp::AugmentedLagrangian));
+    let kept: Vec<_> = after
+        .starts
+        .iter()
+        .filter(|s| s.outcome == StartOutcome::Kept)
+        .collect();
+    assert_eq!(kept.len(), 1);
+    assert!(kept[0].flip.is_some(), "{}", after.table());
+    assert_eq!(kept[0].cost.to_bits(), after.cost.to_bits());
+    let sum = |k: bool| {
+        after
+            .starts
+            .iter()
+            .filter(|s| (s.outcome == StartOutcome::Kept) == k)
+            .map(|s| s.iterations)
+            .sum::<usize>()
+    };
+    assert_eq!((sum(true), sum(false)), (after.iterations, after.discarded_iterations));
+    assert!(after.table().contains("flip (constraint "));
+    // The starts before the flipped ones are the same computation.
+    let n = before.starts.len();
+    assert_eq!(
+        &after.starts[..n].iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>(),
+        &before.starts.iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn the_solver_holds_the_flipped_solution_and_solves_again_the_same() {
+    let (problem, mut one) = solver(CAR_S1_I21, Settings::default());
+    let (_, mut two) = solver(
+        CAR_S1_I21,
+        Settings {
+            portfolio_threads: 2,
+            ..Settings::default()
+        },
+    );
+    let mut first = None;
+    for _ in 0..2 {
+        one.reset();
+        two.reset();
+        let a = one.solve(&problem).unwrap().clone();
+        let b = two.solve(&problem).unwrap().clone();
+        assert_eq!(
+            (a.cost.to_bits(), a.iterations, a.discarded_iterations),
+            (b.cost.to_bits(), b.iterations, b.discarded_iterations)
+        );
+        assert_eq!(one.us(), two.us());
+        assert_eq!(one.xs(), two.xs());
+        // The solver's trajectory is the kept solution's: its cost is the report's.
+        let q = one.cost();
+        assert!((q - a.cost).abs() <= 1e-12 * a.cost.abs(), "{q} {}", a.cost);
+        let key = (
+            a.cost.to_bits(),
+            a.iterations,
+            a.discarded_iterations,
+            one.us().to_vec(),
+        );
+        if let Some(f) = &first {
+            assert_eq!(f, &key, "a second solve differs");
+        }
+        first = Some(key);
+    }
+}
+
+#[test]
+fn flipped_starts_run_only_above_the_gate() {
+    // P2's kept solution costs 1.46x its obstacle-free optimum: below the default gate of 1.5
+    // nothing changes, bit for bit; with a gate of 1 its binding obstacles get flipped starts,
+    // none better.
+    let p2 = std::fs::read_to_string("../../bench/problems/p2_car4.json").unwrap();
+    let off = solve(&p2, no_flips());
+    let on = solve(&p2, Settings::default());
+    assert_eq!(
+        (off.cost.to_bits(), off.iterations, off.discarded_iterations),
+        (on.cost.to_bits(), on.iterations, on.discarded_iterations)
+    );
+    assert!(on.starts.iter().all(|s| s.flip.is_none()));
+    let low = solve(
+        &p2,
+        Settings {
+            portfolio_flip: Some(1.0),
+            ..Settings::default()
+        },
+    );
+    assert!(low.starts.iter().any(|s| s.flip.is_some()), "{}", low.table());
+    assert!(low.cost <= on.cost && low.max_violation <= 1e-6);
+    assert!(low.discarded_iterations > on.discarded_iterations);
+    // Only the portfolio runs them.
+    let al = Settings {
+        warm_up: WarmUp::AugmentedLagrangian,
+        ..Settings::default()
+    };
+    let a = solve(CAR_S1_I21, al);
+    let b = solve(
+        CAR_S1_I21,
+        Settings {
+            portfolio_flip: None,
+            ..al
+        },
+    );
+    assert_eq!((a.cost.to_bits(), a.iterations), (b.cost.to_bits(), b.iterations));
+    assert!(a.starts.is_empty());
+}
+
+#[test]
+fn bad_flip_settings_are_rejected_by_name() {
+    for f in [0.5, f64::NAN, f64::INFINITY, -1.0] {
+        let s = Settings {
+            portfolio_flip: Some(f),
+            ..Settings::default()
+        };
+        let e = s.validate().unwrap_err().to_string();
+        assert!(e.contains("portfolio_flip") && e.contains(">= 1"), "{e}");
+    }
+    let s = Settings {
+        portfolio_flip_guide: 0,
+        ..Settings::default()
+    };
+    assert!(s.validate().unwrap_err().to_string().contains("portfolio_flip_guide"));
+}
+
+#[test]
+fn a_solver_set_to_a_shorter_horizon_runs_no_flipped_starts() {
+    // The gate's obstacle-free solve covers the problem's whole horizon only.
+    let (problem, mut s) = solver(CAR_S1_I21, Settings::default());
+    s.set_horizon(problem.horizon() - 10).unwrap();
+    let r = s.solve(&problem).unwrap();
+    assert!(r.cost.is_finite() && !r.starts.is_empty());
+    assert!(r.starts.iter().all(|st| st.flip.is_none()), "{}", r.table());
+}

@@ -56,15 +56,7 @@ fn a_flipped_start_finds_the_way_between_the_obstacles() {
     assert_eq!(kept.len(), 1);
     assert!(kept[0].flip.is_some(), "{}", after.table());
     assert_eq!(kept[0].cost.to_bits(), after.cost.to_bits());
-    let sum = |k: bool| {
-        after
-            .starts
-            .iter()
-            .filter(|s| (s.outcome == StartOutcome::Kept) == k)
-            .map(|s| s.iterations)
-            .sum::<usize>()
-    };
-    assert_eq!((sum(true), sum(false)), (after.iterations, after.discarded_iterations));
+    check_totals(&after);
     assert!(after.table().contains("flip (constraint "));
     // The starts before the flipped ones are the same computation.
     let n = before.starts.len();
@@ -72,6 +64,51 @@ fn a_flipped_start_finds_the_way_between_the_obstacles() {
         &after.starts[..n].iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>(),
         &before.starts.iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>()
     );
+}
+
+/// The report's starts against its totals: the kept (and polished) starts' iterations are the
+/// report's `iterations`, the others' its `discarded_iterations`; one start is kept.
+fn check_totals(r: &Report) {
+    let kept = |s: &&safe_cddp::StartReport| matches!(s.outcome, StartOutcome::Kept | StartOutcome::Polished);
+    let sum = |k: bool| {
+        r.starts
+            .iter()
+            .filter(|s| kept(s) == k)
+            .map(|s| s.iterations)
+            .sum::<usize>()
+    };
+    assert_eq!(
+        (sum(true), sum(false)),
+        (r.iterations, r.discarded_iterations),
+        "{}",
+        r.table()
+    );
+    let n = r.starts.iter().filter(|s| s.outcome == StartOutcome::Kept).count();
+    assert_eq!(n, 1, "{}", r.table());
+}
+
+/// Problem 47 of the car family, seed 1 (`bench/results/family_s1_210_flip.json`): the polish
+/// goes on from the barrier start's solution, and then a flipped start finds a cheaper one.
+const CAR_S1_I47: &str = r#"{"name": "car-s1-i47-a0", "model": "car", "dt": 0.0728, "N": 96, "x0": [0.0, 0.0, 2.4443, 0.0], "cost": {"kind": "quad_goal", "x_goal": [-2.7779, 2.3015, 2.514, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "u_min": [-0.4757, -0.4698], "u_max": [0.4757, 0.4698], "obstacles": [[-2.2588, 2.257, 0.2068], [-1.091, 0.655, 0.2231], [-2.2506, 1.7722, 0.3408]]}"#;
+
+#[test]
+fn a_flipped_start_kept_over_a_polished_solution_gives_both_up() {
+    let before = solve(CAR_S1_I47, no_flips());
+    let after = solve(CAR_S1_I47, Settings::default());
+    assert!(
+        before.starts.iter().any(|s| s.outcome == StartOutcome::Polished),
+        "{}",
+        before.table()
+    );
+    assert!(after.cost < before.cost && after.max_violation <= 1e-6);
+    let kept = after.starts.iter().find(|s| s.outcome == StartOutcome::Kept).unwrap();
+    assert!(kept.flip.is_some(), "{}", after.table());
+    assert!(
+        after.starts.iter().all(|s| s.outcome != StartOutcome::Polished),
+        "{}",
+        after.table()
+    );
+    check_totals(&after);
 }
 
 #[test]

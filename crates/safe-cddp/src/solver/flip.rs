@@ -9,8 +9,8 @@
 //! the other side of it (the family's misses by more than 5 %: a cheaper path between two
 //! obstacles, or round a whole cluster). A guide row steers a start there: a half-space
 //! `a' x_t >= b` at the time `t` where the row is most active on the kept trajectory, with `a`
-//! the row's unit gradient there (into the obstacle) and `b` placing `x_t` a tenth beyond the
-//! point where the line along `a` leaves the obstacle again. It is read from the constraint
+//! the row's unit gradient there (into the obstacle) and `b` putting `x_t` 1.1 times as far
+//! along `a` as the point where that line leaves the obstacle again. It is read from the constraint
 //! itself, so every state constraint has one. An augmented-Lagrangian start from the initial
 //! guess runs [`crate::Settings::portfolio_flip_guide`] iterations with the guide row, then the
 //! guide is lifted and the start goes on, its multipliers and penalty kept, to its own optimum,
@@ -204,7 +204,8 @@ where
             let lam: f64 = (0..slot.knots(n))
                 .map(|k| self.rows.lambda[k * m + slot.offset + r])
                 .sum();
-            if lam > 0.0 || sides.kept_at[i].0 >= -tol {
+            let touched = sides.kept_at.get(i).is_some_and(|&(top, _)| top >= -tol);
+            if lam > 0.0 || touched {
                 f.binding.push((lam, j, r, i));
             }
         }
@@ -220,9 +221,9 @@ where
         let d = self.rows.slots[j].dim;
         let c = &self.constraints[j];
         let (f, sides) = (&mut self.portfolio.flips, &self.portfolio.sides);
-        let a = &sides.kept[i * nx..(i + 1) * nx];
-        let t = sides.kept_at[i].1;
-        let x = &self.core.traj.xs[t];
+        let a = sides.kept.get(i * nx..(i + 1) * nx)?;
+        let t = sides.kept_at.get(i)?.1;
+        let x = self.core.traj.xs.get(t)?;
         if a.iter().all(|&e| e == 0.0) {
             return None;
         }
@@ -311,13 +312,11 @@ where
                 outcome: StartOutcome::Discarded,
             };
             if keep {
-                if let Some(previous) = self
-                    .portfolio
-                    .starts
-                    .iter_mut()
-                    .find(|s| s.outcome == StartOutcome::Kept)
-                {
-                    previous.outcome = StartOutcome::Discarded;
+                // The solution given up: the kept start's, and the one its polish went on from.
+                for previous in self.portfolio.starts.iter_mut() {
+                    if matches!(previous.outcome, StartOutcome::Kept | StartOutcome::Polished) {
+                        previous.outcome = StartOutcome::Discarded;
+                    }
                 }
                 entry.outcome = StartOutcome::Kept;
                 *discarded += self.report.iterations;

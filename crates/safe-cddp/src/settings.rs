@@ -200,8 +200,9 @@ pub struct Settings {
     /// row is most active) for [`Settings::portfolio_flip_guide`] iterations, then without it to
     /// its own optimum, kept when better. When every start chose the poor side of a binding
     /// obstacle (a path round a whole cluster, where a cheaper one passes between two), only a
-    /// start on the other side escapes. Only on solves over the problem's whole horizon (not
-    /// after [`crate::SafeCddpSolver::set_horizon`] to a shorter one). `None`: no flipped
+    /// start on the other side escapes. Only with two or more state rows (with one, the other
+    /// starts already go round it both ways) and on solves over the problem's whole horizon
+    /// (not after [`crate::SafeCddpSolver::set_horizon`] to a shorter one). `None`: no flipped
     /// starts. See `bench/peers/README.md`,
     /// "The other side of each binding obstacle".
     pub portfolio_flip: Option<f64>,

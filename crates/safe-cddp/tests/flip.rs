@@ -189,6 +189,31 @@ fn flipped_starts_run_only_above_the_gate() {
     assert!(a.starts.is_empty());
 }
 
+/// Problem 2 of the car family, seed 1: one obstacle, whose kept solution costs more than 1.5x
+/// the obstacle-free optimum.
+const CAR_S1_I2: &str = r#"{"name": "car-s1-i2-a0", "model": "car", "dt": 0.0995, "N": 122, "x0": [0.0, 0.0, 0.0755, 0.0], "cost": {"kind": "quad_goal", "x_goal": [2.5464, 0.4745, 0.5807, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "u_min": [-0.3297, -0.3617], "u_max": [0.3297, 0.3617], "obstacles": [[1.3621, 0.0235, 0.4406]]}"#;
+
+#[test]
+fn one_obstacle_gets_no_flipped_starts() {
+    // With a single state row the other starts go round it both ways already; a second
+    // obstacle inside the first (it never binds) gives the problem two state rows, and the
+    // flipped start for the first runs.
+    let off = solve(CAR_S1_I2, no_flips());
+    let on = solve(CAR_S1_I2, Settings::default());
+    assert_eq!(
+        (off.cost.to_bits(), off.iterations, off.discarded_iterations),
+        (on.cost.to_bits(), on.iterations, on.discarded_iterations)
+    );
+    assert!(on.starts.iter().all(|s| s.flip.is_none()));
+    let two = CAR_S1_I2.replace(
+        "[[1.3621, 0.0235, 0.4406]]",
+        "[[1.3621, 0.0235, 0.4406], [1.2, 0.2, 0.1]]",
+    );
+    let r = solve(&two, Settings::default());
+    assert!(r.starts.iter().any(|s| s.flip.is_some()), "{}", r.table());
+    check_totals(&r);
+}
+
 #[test]
 fn bad_flip_settings_are_rejected_by_name() {
     for f in [0.5, f64::NAN, f64::INFINITY, -1.0] {

@@ -1383,7 +1383,8 @@ class SafeCddpSolver:
     its most active state more than 90 degrees from the kept solution's): two starts that agree
     can share a poor optimum (``None``: no third start there).
     Where the kept solution costs more than ``portfolio_flip`` times the optimum without the
-    constraints (from the same guess), one more start per binding state row, steered to its
+    constraints (from the same guess) and there are two or more state rows (obstacles), one more
+    start per binding state row, steered to its
     far side (a guide half-space past the row's far boundary along its gradient, for 25
     augmented-Lagrangian iterations from the guess, then lifted) and kept when better: a path
     between two obstacles where every other start went round them (``None``: none).

@@ -216,6 +216,20 @@ pub struct Settings {
     pub al_rho_max: f64,
     /// Largest violation at which the warm-up hands over to the KKT/QP iterations.
     pub al_switch_violation: f64,
+    /// In a cold solve with a warm-up, the shortest step the KKT/QP iterations' line search
+    /// tries (at least `line_search.step_min`); when no longer step is accepted the step has
+    /// failed, and the warm-up takes over and runs to its own convergence, as after any failed
+    /// KKT/QP step. Each trial of the KKT/QP line search solves a QP at every knot, and short
+    /// steps there mean that the per-step QPs are blocked (a row the working set left out, a
+    /// state row the controls move only by `O(dt^r)`): on P3 the augmented-Lagrangian start
+    /// crept on for six steps of 1/8 to 1/512 and then failed anyway. With the default `0.25`
+    /// the family replays of ten seeds take 0.92x the time for the same matches (1966 of 2100
+    /// instead of 1965), P3's portfolio 0.76x and P2's 0.93x (`bench/peers/README.md`, "Short
+    /// KKT/QP steps"). Warm starts (an MPC step, a re-solve) keep the line search's own
+    /// `step_min`: there the short steps are the way on (with the floor on every solve, Table
+    /// I's open-loop car reached its goal in 18 of 100 episodes instead of 98). `0`:
+    /// `line_search.step_min`.
+    pub kkt_step_min: f64,
     /// Relative merit change below which an inner warm-up solve counts as done (multiplier update).
     pub al_inner_tolerance: f64,
     /// An inner augmented-Lagrangian solve also counts as done after a full step (`alpha = 1`)
@@ -319,6 +333,7 @@ impl Default for Settings {
             al_rho_factor: 10.0,
             al_rho_max: 1e8,
             al_switch_violation: 1e-8,
+            kkt_step_min: 0.25,
             al_inner_tolerance: 1e-7,
             al_inner_progress: 1.0,
             al_inner_progress_below: 0.1,
@@ -491,6 +506,12 @@ impl Settings {
                 "finite and >= 1",
             )?;
         }
+        check(
+            "kkt_step_min",
+            (0.0..=1.0).contains(&self.kkt_step_min),
+            self.kkt_step_min,
+            "in [0, 1]",
+        )?;
         if self.portfolio_flip_guide == 0 {
             return Err(Error::invalid("settings.portfolio_flip_guide", "must be at least 1"));
         }

@@ -342,8 +342,14 @@ fn the_report_lists_every_start_and_which_was_kept() {
     use StartOutcome::{Discarded, Kept, Polished, SameSide};
     let (al, barrier) = (WarmUp::AugmentedLagrangian, WarmUp::Barrier);
     let third = Settings::default().portfolio_third_mu;
-    // Where the first two agree on a poor optimum, the third start (on another side) is kept.
-    let r = solve_json(CAR_S1_I22, Settings::default());
+    // Where the first two agree on a poor optimum, the third start (on another side) is kept
+    // (without the flipped starts: one of them ends on the same optimum, 4e-9 lower, and is
+    // kept instead).
+    let no_flip = Settings {
+        portfolio_flip: None,
+        ..Settings::default()
+    };
+    let r = solve_json(CAR_S1_I22, no_flip);
     let starts = check_starts(&r);
     assert_eq!(
         &starts[..3],
@@ -611,9 +617,12 @@ fn rows_near_their_boundary_get_curvature_at_a_high_penalty() {
     let bp = BenchmarkProblem::from_json(UNICYCLE_S2_I6).unwrap();
     let (problem, constraints) = bp.unicycle().unwrap();
     let solve = |al_near_margin: f64| {
+        // Short KKT/QP steps kept (`kkt_step_min`): with them counted as failed, the two
+        // solves part in their KKT/QP iterations and end in different optima (1.46 and 2.61).
         let settings = Settings {
             warm_up: WarmUp::AugmentedLagrangian,
             al_near_margin,
+            kkt_step_min: 0.0,
             ..Settings::default()
         };
         let mut solver = SafeCddpSolver::new(&problem, constraints.clone(), settings).unwrap();
@@ -640,4 +649,66 @@ fn rows_near_their_boundary_get_curvature_at_a_high_penalty() {
         near.forward_passes,
         blind.forward_passes
     );
+}
+
+/// `Settings::kkt_step_min`. P3's augmented-Lagrangian start hands over to the KKT/QP iterations
+/// at a feasible trajectory 11 % above the optimum; there the QP steps are short (1/8 down to
+/// 1/512, each line search a QP at every knot) and the line search then fails anyway, and the
+/// warm-up takes over. With the floor it takes over at the first short step.
+#[test]
+fn short_kkt_steps_of_a_cold_solve_hand_back_to_the_warm_up() {
+    let p3 = std::fs::read_to_string("../../bench/problems/p3_point4.json").unwrap();
+    let al = |kkt_step_min: f64| Settings {
+        warm_up: WarmUp::AugmentedLagrangian,
+        kkt_step_min,
+        ..Settings::default()
+    };
+    let creep = solve_json(&p3, al(0.0));
+    let floor = solve_json(&p3, al(0.25));
+    for r in [&creep, &floor] {
+        assert_eq!(r.status, Status::Converged);
+        assert!(r.max_violation <= 1e-8, "{}", r.max_violation);
+        assert!(r.cost <= 1.8958999 * (1.0 + 1e-6), "{}", r.cost);
+    }
+    assert!((floor.cost - creep.cost).abs() <= 1e-8 * creep.cost);
+    assert!(
+        floor.forward_passes + 20 < creep.forward_passes && floor.iterations < creep.iterations,
+        "{} against {} forward passes, {} against {} iterations",
+        floor.forward_passes,
+        creep.forward_passes,
+        floor.iterations,
+        creep.iterations
+    );
+    // A warm start (here from P3's solution to a goal moved by 0.2) keeps the short steps: the
+    // floor changes nothing there.
+    let bp = BenchmarkProblem::from_json(&p3).unwrap();
+    let mut spec: serde_json::Value = serde_json::from_str(&p3).unwrap();
+    let goal = &mut spec["cost"]["x_goal"];
+    goal[0] = serde_json::json!(goal[0].as_f64().unwrap() - 0.2);
+    let bp2 = BenchmarkProblem::from_json(&spec.to_string()).unwrap();
+    let ((problem, constraints), (problem2, _)) = (bp.car_or_point().unwrap(), bp2.car_or_point().unwrap());
+    let warm = |kkt_step_min: f64| {
+        let mut solver = SafeCddpSolver::new(&problem, constraints.clone(), Settings::default()).unwrap();
+        solver.solve(&problem).unwrap();
+        solver
+            .set_settings(Settings {
+                kkt_step_min,
+                ..Settings::default()
+            })
+            .unwrap();
+        let r = solver.solve(&problem2).unwrap().clone();
+        (r.cost.to_bits(), r.iterations, r.forward_passes)
+    };
+    // (With the floor there, this warm solve takes 34 forward passes instead of 42.)
+    assert_eq!(warm(0.0), warm(0.25));
+    for bad in [-0.1, 1.5, f64::NAN] {
+        let e = Settings {
+            kkt_step_min: bad,
+            ..Settings::default()
+        }
+        .validate()
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("kkt_step_min") && e.contains("[0, 1]"), "{e}");
+    }
 }

@@ -10,8 +10,10 @@
 //! obstacles, or round a whole cluster). A guide row steers a start there: a half-space
 //! `a' x_t >= b` at the time `t` where the row is most active on the kept trajectory, with `a`
 //! the row's unit gradient there (into the obstacle) and `b` putting `x_t` 1.1 times as far
-//! along `a` as the point where that line leaves the obstacle again. It is read from the constraint
-//! itself, so every state constraint has one. An augmented-Lagrangian start from the initial
+//! along `a` as the point where that line leaves the obstacle again, and every other state row
+//! with it: where obstacles overlap, past the far side of the cluster, so that the target is
+//! not inside a neighbouring obstacle. It is read from the constraints themselves, so every
+//! state constraint has one. An augmented-Lagrangian start from the initial
 //! guess runs [`crate::Settings::portfolio_flip_guide`] iterations with the guide row, then the
 //! guide is lifted and the start goes on, its multipliers and penalty kept, to its own optimum,
 //! which is kept when better.
@@ -159,6 +161,29 @@ const EXIT_GROWTH: f64 = 1.1;
 const EXIT_STEPS: usize = 200;
 /// The guide's target: this factor times the distance to the far boundary.
 const BEYOND: f64 = 1.1;
+
+/// Whether `x` at time `t` violates a row of a state-only constraint (`g` is scratch for the
+/// largest constraint).
+fn inside_any<NX: Dim, NU: Dim>(
+    constraints: &[Arc<dyn Constraint<NX, NU>>],
+    slots: &[Slot],
+    t: usize,
+    x: &VectorN<NX>,
+    zero_u: &VectorN<NU>,
+    g: &mut [f64],
+) -> bool
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    constraints.iter().zip(slots).any(|(c, slot)| {
+        if slot.mixed || slot.dim == 0 {
+            return false;
+        }
+        let g = &mut g[..slot.dim];
+        c.evaluate(t, x, zero_u, g);
+        g.iter().any(|&v| v > 0.0)
+    })
+}
 /// Iterations of the obstacle-free solve of the gate (5-7 on P2 and P3, at most 30 on 95 % of the
 /// family's problems).
 const FREE_ITERATIONS: usize = 50;
@@ -214,8 +239,9 @@ where
     }
 
     /// The guide row for row `r` of constraint `j`, state row `i`, on the kept trajectory:
-    /// `(t, b)` with `a` the row's unit gradient at its most active time `t` (`sides.kept`), or
-    /// `None` when the row has no far side along it (a half-plane, a zero gradient).
+    /// `(t, b)` with `a` the row's unit gradient at its most active time `t` (`sides.kept`) and
+    /// `b` past the first point along `a` beyond the row where no state row is violated, or
+    /// `None` when there is no such point within the search (a half-plane, a zero gradient).
     fn guide_for(&mut self, j: usize, r: usize, i: usize) -> Option<(usize, f64)> {
         let nx = self.dims().nx();
         let d = self.rows.slots[j].dim;
@@ -227,7 +253,8 @@ where
         if a.iter().all(|&e| e == 0.0) {
             return None;
         }
-        // Along the gradient from x_t: into the obstacle (g > 0), then out of its far side.
+        // Along the gradient from x_t: into the obstacle (g > 0), then out of its far side and
+        // clear of every other state row.
         let mut y = x.clone();
         let (mut s, mut h, mut inside) = (0.0, EXIT_STEP, false);
         for _ in 0..EXIT_STEPS {
@@ -239,7 +266,7 @@ where
             c.evaluate(t, &y, &self.rows.zero_u, &mut f.g[..d]);
             if f.g[r] > 0.0 {
                 inside = true;
-            } else if inside {
+            } else if inside && !inside_any(&self.constraints, &self.rows.slots, t, &y, &self.rows.zero_u, &mut f.g) {
                 f.a.copy_from_slice(a);
                 let b = x.iter().zip(a).map(|(x, a)| a * x).sum::<f64>() + BEYOND * s;
                 return Some((t, b));

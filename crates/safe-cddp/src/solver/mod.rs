@@ -138,6 +138,8 @@ struct IterState {
     iteration: usize,
     /// The last accepted step of this solve was a warm-up step.
     accepted_in_warm_up: bool,
+    /// The solve began cold, in the warm-up ([`Settings::kkt_step_min`] applies).
+    cold_solve: bool,
 }
 
 /// The Safe-CDDP solver and its workspace, for `NX` states, `NU` controls (compile-time or
@@ -299,6 +301,7 @@ where
                 started: false,
                 iteration: 0,
                 accepted_in_warm_up: false,
+                cold_solve: false,
             },
             report: report(),
             portfolio: Portfolio {
@@ -999,6 +1002,7 @@ where
         self.warm.mu = self.portfolio.mu_init.unwrap_or(s.barrier_mu_init);
         self.warm.fresh = true;
         self.warm.from_cold = self.warm.cold;
+        self.it.cold_solve = self.warm.active && self.warm.cold;
         self.warm.rho = self.warm.rho.max(s.al_rho_init);
         self.warm.prev_violation = f64::INFINITY;
         self.warm.funnel = f64::INFINITY;
@@ -1141,7 +1145,13 @@ where
         let mut elastic = false;
         let mut failure: Option<Status> = None;
         let mut accepted = (f64::NAN, f64::NAN, f64::NAN);
-        let alpha = line_search(&s.line_search, |alpha| {
+        // Short KKT/QP steps of a cold solve count as failed: its warm-up takes over
+        // (`Settings::kkt_step_min`).
+        let mut search = s.line_search;
+        if !self.warm.active && self.it.cold_solve && !self.warm.kkt_failed {
+            search.step_min = search.step_min.max(s.kkt_step_min);
+        }
+        let alpha = line_search(&search, |alpha| {
             self.report.forward_passes += 1;
             let done = if self.warm.active {
                 Forward::Done {

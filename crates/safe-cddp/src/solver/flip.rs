@@ -159,7 +159,8 @@ where
 const EXIT_STEP: f64 = 1e-2;
 const EXIT_GROWTH: f64 = 1.1;
 const EXIT_STEPS: usize = 200;
-/// The guide's target: this factor times the distance to the far boundary.
+/// The guide's target: this factor times the distance to the first point past the flipped row
+/// where no state row is violated (its far boundary, or the cluster's).
 const BEYOND: f64 = 1.1;
 
 /// Whether `x` at time `t` violates a row of a state-only constraint (`g` is scratch for the
@@ -184,6 +185,7 @@ where
         g.iter().any(|&v| v > 0.0)
     })
 }
+
 /// Iterations of the obstacle-free solve of the gate (5-7 on P2 and P3, at most 30 on 95 % of the
 /// family's problems).
 const FREE_ITERATIONS: usize = 50;

@@ -1346,8 +1346,9 @@ pub struct SafeSolution {
     /// barrier weight, else ``None``), ``flip`` (for a flipped start, ``portfolio_flip``: the
     /// index of the constraint whose other side it was steered to, else ``None``),
     /// ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
-    /// on from it), ``"discarded"`` or ``"same_side"`` (stopped at the end of its homotopy on the
-    /// kept solution's sides).
+    /// on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its homotopy on the
+    /// kept solution's sides) or ``"stalled"`` (stopped where, at the rate its cost fell, it
+    /// could not reach the kept cost within its iterations).
     #[pyo3(get)]
     starts: Py<PyList>,
     table: Table,

@@ -15,7 +15,8 @@
 //! (`Settings::portfolio_flip`, `portfolio_flip_guide`; 0: none), `THREADS=2` its concurrent starts
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
-//! the augmented Lagrangian, `KKT_STEP_MIN` `kkt_step_min`, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
+//! the augmented Lagrangian, `KKT_STEP_MIN` `kkt_step_min`, `MAX_IT` `max_iterations` (`family.py`
+//! solves with 500, the library's default is 200), `STALL` `portfolio_stall`, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
 //! `al_inner_progress`, `al_inner_progress_below`, `NEAR_MARGIN`, `NEAR_RHO` `al_near_margin`,
 //! `al_near_rho`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
 //! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES` print
@@ -133,6 +134,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("KKT_STEP_MIN") {
         s.kkt_step_min = v;
+    }
+    if let Some(v) = env("STALL") {
+        s.portfolio_stall = v as usize;
+    }
+    if let Some(v) = env("MAX_IT") {
+        s.max_iterations = v as usize;
     }
     let only = std::env::var("ONLY").ok();
     let problems = doc["problems"].as_array().ok_or("no problems")?;

@@ -1512,8 +1512,9 @@ class SafeSolution:
         initial barrier weight, else ``None``), ``flip`` (a flipped start's constraint index,
         ``portfolio_flip``, else ``None``), ``iterations``, ``cost``, ``max_violation``
         (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the
-        polish went on from it), ``"discarded"`` or ``"same_side"`` (stopped at the end of its
-        homotopy on the kept solution's sides). The ``"kept"`` and ``"polished"`` starts'
+        polish went on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its
+        homotopy on the kept solution's sides) or ``"stalled"`` (stopped where, at the rate its
+        cost fell, it could not reach the kept cost within its iterations). The ``"kept"`` and ``"polished"`` starts'
         iterations make up :attr:`iterations`, the others' :attr:`discarded_iterations`; the
         table lists them after the status line."""
     def table(self) -> str:

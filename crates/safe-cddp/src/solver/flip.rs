@@ -326,13 +326,17 @@ where
             f.row.lift();
             guide.settings.max_iterations = self.settings.max_iterations;
             // Still the augmented Lagrangian (not the barrier of a cold portfolio start), with the
-            // guided iterations' multipliers and penalty.
+            // guided iterations' multipliers and penalty; stopped where it crawls above the kept
+            // cost (`Settings::portfolio_stall`).
+            guide.portfolio.beat = (self.settings.portfolio_stall > 0).then_some(self.report.cost);
             guide.solve_from_start(problem)?;
+            guide.portfolio.beat = None;
+            let stalled = std::mem::take(&mut guide.portfolio.stalled);
             guide.portfolio.member = None;
             guide.report.iterations += guided;
             guide.report.qp += guided_qps;
             let r = &guide.report;
-            let keep = better(r, &self.report, tol);
+            let keep = !stalled && better(r, &self.report, tol);
             let mut entry = StartReport {
                 warm_up: WarmUp::AugmentedLagrangian,
                 barrier_mu_init: None,
@@ -357,6 +361,9 @@ where
                 self.portfolio.best[..n].clone_from_slice(&guide.core.traj.us[..n]);
                 kept_any = true;
             } else {
+                if stalled {
+                    entry.outcome = StartOutcome::Stalled;
+                }
                 *discarded += r.iterations;
                 *discarded_qps += r.qp;
             }

@@ -200,6 +200,11 @@ where
     side_test: bool,
     /// The running start stopped there.
     same_side: bool,
+    /// The kept solution's cost, which the running start must be able to reach
+    /// ([`Settings::portfolio_stall`]; `None`: no such test).
+    beat: Option<f64>,
+    /// The running start stopped for that.
+    stalled: bool,
     /// The cost at the end of the augmented-Lagrangian start's first inner solve (zero
     /// multipliers, the initial penalty): a relaxation in which the path may still cut through
     /// the obstacles (`NaN` until then).
@@ -315,6 +320,8 @@ where
                 sides: Sides::new(dims, max_dim, state_rows),
                 side_test: false,
                 same_side: false,
+                beat: None,
+                stalled: false,
                 relaxed_cost: f64::NAN,
                 starts: Vec::with_capacity(MAX_STARTS + state_rows),
                 flips: Flips::new(dims, max_dim, state_rows),
@@ -640,6 +647,13 @@ where
                 }
                 let p = &mut self.portfolio;
                 p.side_test = side_test;
+                // Not the second start (it may run alongside the first), nor the polish (it goes
+                // on from the kept solution, whose cost its cold multipliers first raise).
+                p.beat = (i >= 2
+                    && member.is_some()
+                    && self.settings.portfolio_stall > 0
+                    && p.report.max_violation_tightened <= tol)
+                    .then_some(p.report.cost);
                 match member {
                     Some((warm_up, mu)) => {
                         self.core.traj.us[..n].clone_from_slice(&p.guess[..n]);
@@ -664,6 +678,7 @@ where
             }
             let p = &mut self.portfolio;
             p.side_test = false;
+            p.beat = None;
             let (warm_up, barrier_mu_init) = member.unwrap_or((WarmUp::None, None));
             let r = &self.report;
             let mut entry = StartReport {
@@ -676,8 +691,13 @@ where
                 status: r.status,
                 outcome: StartOutcome::Discarded,
             };
-            if std::mem::take(&mut p.same_side) {
-                entry.outcome = StartOutcome::SameSide;
+            let stalled = std::mem::take(&mut p.stalled);
+            if std::mem::take(&mut p.same_side) || stalled {
+                entry.outcome = if stalled {
+                    StartOutcome::Stalled
+                } else {
+                    StartOutcome::SameSide
+                };
                 p.starts.push(entry);
                 discarded += self.report.iterations;
                 discarded_qps += self.report.qp;
@@ -890,7 +910,8 @@ where
             // Iterations since the last tightening; starts "overdue" so that a solve that begins
             // in the KKT/QP iterations tightens after its first iteration (Algorithm 1, line 22).
             let mut since_tightening = usize::MAX / 2;
-            for _ in 0..self.settings.max_iterations {
+            let mut stall = Stall::new(self.core.cost);
+            for done in 1..=self.settings.max_iterations {
                 let outcome = self.iterate(problem)?;
                 let mut tightened = false;
                 let mut fresh = false;
@@ -911,6 +932,19 @@ where
                 if std::mem::take(&mut self.warm.homotopy_ended) && self.portfolio.side_test && self.on_kept_sides() {
                     self.portfolio.same_side = true;
                     break;
+                }
+                // A later start that crawls above the kept cost (`Settings::portfolio_stall`).
+                if let Some(kept) = self.portfolio.beat {
+                    let full_step = matches!(outcome, IterationOutcome::Accepted { step, .. } if step == 1.0);
+                    let crawl = full_step
+                        && self.warm.active
+                        && !self.warm.barrier
+                        && self.it.violation_max <= self.settings.constraint_tolerance;
+                    let left = self.settings.max_iterations - done;
+                    if stall.update(crawl, self.core.cost, left, kept) >= self.settings.portfolio_stall {
+                        self.portfolio.stalled = true;
+                        break;
+                    }
                 }
                 match outcome {
                     IterationOutcome::Failed(s) => {
@@ -1495,6 +1529,33 @@ where
         }
         self.it.need_linearize = false;
         self.it.moved = false;
+    }
+}
+
+/// The test of [`Settings::portfolio_stall`]: consecutive crawling steps whose rate of descent
+/// cannot bring the cost down to the kept one within the iterations left.
+struct Stall {
+    last: f64,
+    run: usize,
+}
+
+impl Stall {
+    fn new(cost: f64) -> Self {
+        Self { last: cost, run: 0 }
+    }
+
+    /// After an iteration that ended at `cost` (`crawl`: an accepted full step of the augmented
+    /// Lagrangian at a feasible trajectory), with `left` iterations to go: the length of the
+    /// current run of such steps that, at their rate, could not reach `kept`.
+    fn update(&mut self, crawl: bool, cost: f64, left: usize, kept: f64) -> usize {
+        let fall = self.last - cost;
+        self.last = cost;
+        if crawl && fall >= 0.0 && cost - fall * left as f64 > kept {
+            self.run += 1;
+        } else {
+            self.run = 0;
+        }
+        self.run
     }
 }
 

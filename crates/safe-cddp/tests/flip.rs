@@ -48,14 +48,9 @@ fn a_flipped_start_finds_the_way_between_the_obstacles() {
     let flips: Vec<_> = after.starts.iter().filter(|s| s.flip.is_some()).collect();
     assert_eq!(flips.len(), 2, "{}", after.table());
     assert!(flips.iter().all(|s| s.warm_up == WarmUp::AugmentedLagrangian));
-    let kept: Vec<_> = after
-        .starts
-        .iter()
-        .filter(|s| s.outcome == StartOutcome::Kept)
-        .collect();
-    assert_eq!(kept.len(), 1);
-    assert!(kept[0].flip.is_some(), "{}", after.table());
-    assert_eq!(kept[0].cost.to_bits(), after.cost.to_bits());
+    let kept = kept_start(&after);
+    assert!(kept.flip.is_some(), "{}", after.table());
+    assert_eq!(kept.cost.to_bits(), after.cost.to_bits());
     check_totals(&after);
     assert!(after.table().contains("flip (constraint "));
     // The starts before the flipped ones are the same computation.
@@ -64,6 +59,13 @@ fn a_flipped_start_finds_the_way_between_the_obstacles() {
         &after.starts[..n].iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>(),
         &before.starts.iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>()
     );
+}
+
+/// The one start whose solution the report holds.
+fn kept_start(r: &Report) -> &safe_cddp::StartReport {
+    let kept: Vec<_> = r.starts.iter().filter(|s| s.outcome == StartOutcome::Kept).collect();
+    assert_eq!(kept.len(), 1, "{}", r.table());
+    kept[0]
 }
 
 /// The report's starts against its totals: the kept (and polished) starts' iterations are the
@@ -229,13 +231,7 @@ fn a_flipped_start_goes_round_a_cluster_of_obstacles() {
     assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
     assert!(before.cost > 1.4 * POINT_S8_I22_FATROP, "without: {}", before.cost);
     assert!(after.cost <= POINT_S8_I22_FATROP * (1.0 + 1e-6), "with: {}", after.cost);
-    let kept: Vec<_> = after
-        .starts
-        .iter()
-        .filter(|s| s.outcome == StartOutcome::Kept)
-        .collect();
-    assert_eq!(kept.len(), 1);
-    assert_eq!(kept[0].flip, Some(0), "{}", after.table());
+    assert_eq!(kept_start(&after).flip, Some(0), "{}", after.table());
     check_totals(&after);
 }
 

@@ -196,6 +196,47 @@ fn analytic_derivatives_equal_autodiff_of_generic_step() {
     check_autodiff("ArmBase offset", ArmBase::from_params(offset).unwrap(), 17);
 }
 
+/// The kept path ([`Dynamics::jacobians_keep`], [`Dynamics::add_second_order_kept`]) gives the
+/// plain path's Jacobians and second-order terms bit for bit: with the knot's own data, with
+/// data kept at another point, and with none.
+fn check_kept<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>>(name: &str, model: &D, seed: u64) {
+    let mut rng = Rng(seed);
+    let mut data = Vec::new();
+    let other = rng.vector::<NX>(-1.0, 1.0);
+    for sample in 0..SAMPLES {
+        let x = rng.vector::<NX>(-3.0, 3.0);
+        let u = rng.vector::<NU>(-1.0, 1.0);
+        let lambda = rng.vector::<NX>(-100.0, 100.0);
+        let (mut fx, mut fu) = (Matrix::<NX, NX>::zeros(), Matrix::<NX, NU>::zeros());
+        model.jacobians(&x, &u, &mut fx, &mut fu);
+        let plain = second_order(model, &x, &u, &lambda);
+        let kept_at = |at: &Vector<NX>, data: &mut Vec<f64>| {
+            let (mut gx, mut gu) = (Matrix::<NX, NX>::repeat(f64::NAN), Matrix::<NX, NU>::repeat(f64::NAN));
+            model.jacobians_keep(at, &u, &mut gx, &mut gu, data);
+            (gx, gu)
+        };
+        let (gx, gu) = kept_at(&x, &mut data);
+        assert_eq!((gx, gu), (fx, fu), "{name} sample {sample}: kept Jacobians");
+        for data in [data.clone(), Vec::new(), {
+            let mut d = Vec::new();
+            kept_at(&other, &mut d);
+            d
+        }] {
+            let (mut h_xx, mut h_ux, mut h_uu) = (Matrix::zeros(), Matrix::zeros(), Matrix::zeros());
+            model.add_second_order_kept(&x, &u, &lambda, &data, &mut h_xx, &mut h_ux, &mut h_uu);
+            assert_eq!((h_xx, h_ux, h_uu), plain, "{name} sample {sample}: kept second order");
+        }
+    }
+}
+
+#[test]
+fn kept_derivatives_equal_the_plain_ones_bit_for_bit() {
+    check_kept("Unicycle", &Unicycle::default(), 21);
+    check_kept("Car", &Car::default(), 22);
+    check_kept("DoubleIntegrator2D", &DoubleIntegrator2D::default(), 23);
+    check_kept("Quadrotor", &Quadrotor::default(), 24);
+}
+
 #[test]
 fn models_are_thread_safe_values() {
     fn assert_traits<T: Send + Sync + Copy + Clone + std::fmt::Debug + 'static>() {}

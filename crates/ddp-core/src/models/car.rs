@@ -30,6 +30,31 @@ impl Car {
     pub fn dt(&self) -> f64 {
         self.dt
     }
+
+    /// The Jacobians with `(sin, cos)` of the heading given.
+    #[inline]
+    fn jacobians_at(&self, (s, c): (f64, f64), x: &Vector<4>, fx: &mut Matrix<4, 4>, fu: &mut Matrix<4, 2>) {
+        let dt = self.dt;
+        super::set_identity(fx);
+        fx[(0, 2)] = -s * x[3] * dt;
+        fx[(0, 3)] = c * dt;
+        fx[(1, 2)] = c * x[3] * dt;
+        fx[(1, 3)] = s * dt;
+        super::set_zero(fu);
+        fu[(2, 0)] = dt;
+        fu[(3, 1)] = dt;
+    }
+
+    /// The second-order terms with `(sin, cos)` of the heading given: lambda . (dt v cos(theta),
+    /// dt v sin(theta)) is the only non-linear part, and it depends on (theta, v) alone.
+    #[inline]
+    fn second_order_at(&self, (s, c): (f64, f64), x: &Vector<4>, lambda: &Vector<4>, h_xx: &mut Matrix<4, 4>) {
+        let dt = self.dt;
+        let cross = dt * (lambda[1] * c - lambda[0] * s);
+        h_xx[(2, 2)] -= dt * x[3] * (lambda[0] * c + lambda[1] * s);
+        h_xx[(2, 3)] += cross;
+        h_xx[(3, 2)] += cross;
+    }
 }
 
 impl Default for Car {
@@ -54,16 +79,31 @@ impl Dynamics<U4, U2> for Car {
 
     #[inline]
     fn jacobians(&self, x: &Vector<4>, _u: &Vector<2>, fx: &mut Matrix<4, 4>, fu: &mut Matrix<4, 2>) {
-        let (s, c) = x[2].sin_cos();
-        let dt = self.dt;
-        super::set_identity(fx);
-        fx[(0, 2)] = -s * x[3] * dt;
-        fx[(0, 3)] = c * dt;
-        fx[(1, 2)] = c * x[3] * dt;
-        fx[(1, 3)] = s * dt;
-        super::set_zero(fu);
-        fu[(2, 0)] = dt;
-        fu[(3, 1)] = dt;
+        self.jacobians_at(x[2].sin_cos(), x, fx, fu);
+    }
+
+    fn jacobians_keep(
+        &self,
+        x: &Vector<4>,
+        _u: &Vector<2>,
+        fx: &mut Matrix<4, 4>,
+        fu: &mut Matrix<4, 2>,
+        data: &mut Vec<f64>,
+    ) {
+        self.jacobians_at(super::keep_sin_cos(x[2], data), x, fx, fu);
+    }
+
+    fn add_second_order_kept(
+        &self,
+        x: &Vector<4>,
+        _u: &Vector<2>,
+        lambda: &Vector<4>,
+        data: &[f64],
+        h_xx: &mut Matrix<4, 4>,
+        _h_ux: &mut Matrix<2, 4>,
+        _h_uu: &mut Matrix<2, 2>,
+    ) {
+        self.second_order_at(super::kept_sin_cos(x[2], data), x, lambda, h_xx);
     }
 
     fn has_second_order(&self) -> bool {
@@ -80,14 +120,7 @@ impl Dynamics<U4, U2> for Car {
         _h_ux: &mut Matrix<2, 4>,
         _h_uu: &mut Matrix<2, 2>,
     ) {
-        // lambda . (dt v cos(theta), dt v sin(theta)) is the only non-linear part; it depends on
-        // (theta, v) alone.
-        let (s, c) = x[2].sin_cos();
-        let dt = self.dt;
-        let cross = dt * (lambda[1] * c - lambda[0] * s);
-        h_xx[(2, 2)] -= dt * x[3] * (lambda[0] * c + lambda[1] * s);
-        h_xx[(2, 3)] += cross;
-        h_xx[(3, 2)] += cross;
+        self.second_order_at(x[2].sin_cos(), x, lambda, h_xx);
     }
 }
 

@@ -57,3 +57,23 @@ fn set_identity<const N: usize>(m: &mut Matrix<N, N>) {
 fn set_zero<const R: usize, const C: usize>(m: &mut Matrix<R, C>) {
     m.as_mut_slice().fill(0.0);
 }
+
+/// `theta.sin_cos()`, kept in a knot's `data` ([`crate::Dynamics::jacobians_keep`]) as
+/// `[theta, sin, cos]` for the second-order terms of the same knot.
+#[inline]
+fn keep_sin_cos(theta: f64, data: &mut Vec<f64>) -> (f64, f64) {
+    let (s, c) = theta.sin_cos();
+    data.clear();
+    data.extend_from_slice(&[theta, s, c]);
+    (s, c)
+}
+
+/// The `sin_cos` [`keep_sin_cos`] kept, when it was kept at this `theta` (the data may belong
+/// to another point); else computed.
+#[inline]
+fn kept_sin_cos(theta: f64, data: &[f64]) -> (f64, f64) {
+    match data {
+        [t, s, c] if *t == theta => (*s, *c),
+        _ => theta.sin_cos(),
+    }
+}

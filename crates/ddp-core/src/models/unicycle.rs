@@ -33,6 +33,35 @@ impl Unicycle {
     pub fn dt(&self) -> f64 {
         self.dt
     }
+
+    /// The Jacobians with `(sin, cos)` of the heading given.
+    #[inline]
+    fn jacobians_at(&self, (s, c): (f64, f64), u: &Vector<2>, fx: &mut Matrix<3, 3>, fu: &mut Matrix<3, 2>) {
+        let dt = self.dt;
+        super::set_identity(fx);
+        fx[(0, 2)] = -s * u[0] * dt;
+        fx[(1, 2)] = c * u[0] * dt;
+        super::set_zero(fu);
+        fu[(0, 0)] = c * dt;
+        fu[(1, 0)] = s * dt;
+        fu[(2, 1)] = dt;
+    }
+
+    /// The second-order terms with `(sin, cos)` of the heading given: lambda . (dt v cos, dt v
+    /// sin) has only the (theta, theta) and (v, theta) entries non-zero.
+    #[inline]
+    fn second_order_at(
+        &self,
+        (s, c): (f64, f64),
+        u: &Vector<2>,
+        lambda: &Vector<3>,
+        h_xx: &mut Matrix<3, 3>,
+        h_ux: &mut Matrix<2, 3>,
+    ) {
+        let dt = self.dt;
+        h_xx[(2, 2)] -= dt * u[0] * (lambda[0] * c + lambda[1] * s);
+        h_ux[(0, 2)] += dt * (lambda[1] * c - lambda[0] * s);
+    }
 }
 
 impl Default for Unicycle {
@@ -52,15 +81,18 @@ impl Dynamics<U3, U2> for Unicycle {
 
     #[inline]
     fn jacobians(&self, x: &Vector<3>, u: &Vector<2>, fx: &mut Matrix<3, 3>, fu: &mut Matrix<3, 2>) {
-        let (s, c) = x[2].sin_cos();
-        let dt = self.dt;
-        super::set_identity(fx);
-        fx[(0, 2)] = -s * u[0] * dt;
-        fx[(1, 2)] = c * u[0] * dt;
-        super::set_zero(fu);
-        fu[(0, 0)] = c * dt;
-        fu[(1, 0)] = s * dt;
-        fu[(2, 1)] = dt;
+        self.jacobians_at(x[2].sin_cos(), u, fx, fu);
+    }
+
+    fn jacobians_keep(
+        &self,
+        x: &Vector<3>,
+        u: &Vector<2>,
+        fx: &mut Matrix<3, 3>,
+        fu: &mut Matrix<3, 2>,
+        data: &mut Vec<f64>,
+    ) {
+        self.jacobians_at(super::keep_sin_cos(x[2], data), u, fx, fu);
     }
 
     fn has_second_order(&self) -> bool {
@@ -77,11 +109,20 @@ impl Dynamics<U3, U2> for Unicycle {
         h_ux: &mut Matrix<2, 3>,
         _h_uu: &mut Matrix<2, 2>,
     ) {
-        // lambda . (dt v cos, dt v sin): only the (theta, theta) and (v, theta) entries are non-zero.
-        let (s, c) = x[2].sin_cos();
-        let dt = self.dt;
-        h_xx[(2, 2)] -= dt * u[0] * (lambda[0] * c + lambda[1] * s);
-        h_ux[(0, 2)] += dt * (lambda[1] * c - lambda[0] * s);
+        self.second_order_at(x[2].sin_cos(), u, lambda, h_xx, h_ux);
+    }
+
+    fn add_second_order_kept(
+        &self,
+        x: &Vector<3>,
+        u: &Vector<2>,
+        lambda: &Vector<3>,
+        data: &[f64],
+        h_xx: &mut Matrix<3, 3>,
+        h_ux: &mut Matrix<2, 3>,
+        _h_uu: &mut Matrix<2, 2>,
+    ) {
+        self.second_order_at(super::kept_sin_cos(x[2], data), u, lambda, h_xx, h_ux);
     }
 }
 

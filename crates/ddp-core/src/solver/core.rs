@@ -1077,13 +1077,25 @@ where
         }
         q_blocks(q, l, fx, fu, v_x, v_xx);
         gains.add_curvature(k, &mut q.q_xx);
-        if ddp {
-            let knot = &problem.knots()[k];
-            if knot.dynamics.has_second_order() {
+        let knot = &problem.knots()[k];
+        if ddp && knot.dynamics.has_second_order() {
+            let data = lin.data.get(k).map_or(&[][..], Vec::as_slice);
+            if !opts.gated {
+                // Ungated: the terms go straight into the blocks (the same sums as below, without
+                // the copies the gate's fallback needs).
+                knot.dynamics.add_second_order_kept(
+                    &xs[k],
+                    &us[k],
+                    weights,
+                    data,
+                    &mut q.q_xx,
+                    &mut q.q_ux,
+                    &mut q.q_uu,
+                );
+            } else {
                 copy(&mut q.g_xx, &q.q_xx);
                 copy(&mut q.g_ux, &q.q_ux);
                 copy(&mut q.g_uu, &q.q_uu);
-                let data = lin.data.get(k).map_or(&[][..], Vec::as_slice);
                 knot.dynamics.add_second_order_kept(
                     &xs[k],
                     &us[k],
@@ -1100,7 +1112,7 @@ where
                 // Q_uu > 0 and its Schur complement Q_xx - Q_ux^T Q_uu^-1 Q_ux >= 0 (the V_xx
                 // this knot passes on). Otherwise it uses the Gauss-Newton blocks, and V_xx
                 // stays PSD by induction.
-                if !opts.gated || second_order_definite(q, fu, fx, mu, opts.placement) {
+                if second_order_definite(q, fu, fx, mu, opts.placement) {
                     std::mem::swap(&mut q.q_xx, &mut q.g_xx);
                     std::mem::swap(&mut q.q_ux, &mut q.g_ux);
                     std::mem::swap(&mut q.q_uu, &mut q.g_uu);

@@ -1079,39 +1079,26 @@ where
         gains.add_curvature(k, &mut q.q_xx);
         let knot = &problem.knots()[k];
         if ddp && knot.dynamics.has_second_order() {
-            let data = lin.data.get(k).map_or(&[][..], Vec::as_slice);
-            if !opts.gated {
-                // Ungated: the terms go straight into the blocks (the same sums as below, without
-                // the copies the gate's fallback needs).
-                knot.dynamics.add_second_order_kept(
-                    &xs[k],
-                    &us[k],
-                    weights,
-                    data,
-                    &mut q.q_xx,
-                    &mut q.q_ux,
-                    &mut q.q_uu,
-                );
-            } else {
+            // Full DDP adds V_x' . f_xx etc. Far from a minimum that can make the Q block
+            // indefinite, and through Q_xx the indefiniteness would flow into every V_xx
+            // upstream. So after a failed plain pass (`gated`) this knot keeps the second-order
+            // terms only when the whole block is positive (semi)definite: Q_uu > 0 and its Schur
+            // complement Q_xx - Q_ux^T Q_uu^-1 Q_ux >= 0 (the V_xx this knot passes on).
+            // Otherwise it uses the Gauss-Newton blocks, and V_xx stays PSD by induction. The
+            // plain pass adds the terms straight into the blocks; the gated one into copies, so
+            // that the Gauss-Newton blocks remain as the fallback.
+            let (h_xx, h_ux, h_uu) = if opts.gated {
                 copy(&mut q.g_xx, &q.q_xx);
                 copy(&mut q.g_ux, &q.q_ux);
                 copy(&mut q.g_uu, &q.q_uu);
-                knot.dynamics.add_second_order_kept(
-                    &xs[k],
-                    &us[k],
-                    weights,
-                    data,
-                    &mut q.g_xx,
-                    &mut q.g_ux,
-                    &mut q.g_uu,
-                );
-                // Full DDP adds V_x' . f_xx etc. Far from a minimum that can make the Q block
-                // indefinite, and through Q_xx the indefiniteness would flow into every V_xx
-                // upstream. So after a failed plain pass (`gated`) this knot keeps the
-                // second-order terms only when the whole block is positive (semi)definite:
-                // Q_uu > 0 and its Schur complement Q_xx - Q_ux^T Q_uu^-1 Q_ux >= 0 (the V_xx
-                // this knot passes on). Otherwise it uses the Gauss-Newton blocks, and V_xx
-                // stays PSD by induction.
+                (&mut q.g_xx, &mut q.g_ux, &mut q.g_uu)
+            } else {
+                (&mut q.q_xx, &mut q.q_ux, &mut q.q_uu)
+            };
+            let data = lin.data.get(k).map_or(&[][..], Vec::as_slice);
+            knot.dynamics
+                .add_second_order_kept(&xs[k], &us[k], weights, data, h_xx, h_ux, h_uu);
+            if opts.gated {
                 if second_order_definite(q, fu, fx, mu, opts.placement) {
                     std::mem::swap(&mut q.q_xx, &mut q.g_xx);
                     std::mem::swap(&mut q.q_ux, &mut q.g_ux);

@@ -90,8 +90,8 @@ def costs_of(p: BenchProblem) -> tuple[ddpkit.Cost, ddpkit.Cost]:
 
 
 def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
-    """`--two-starts`, `--apart`, `--barrier-funnel`, `--hard-barrier`, `--no-new-side` and
-    `--portfolio-threads`:
+    """`--two-starts`, `--apart`, `--barrier-funnel`, `--hard-barrier`, `--no-new-side`,
+    `--no-flip`, `--no-mirror` and `--portfolio-threads`:
     the `SafeCddpSolver` options the peer benchmarks expose (read back with `safe_options_of`)."""
     ap.add_argument(
         "--two-starts",
@@ -135,6 +135,12 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "2026-12-06)",
     )
     ap.add_argument(
+        "--no-mirror",
+        action="store_true",
+        help="ddpkit with SafeCddpSolver(portfolio_mirror=None): no mirrored start (the other side of every "
+        "obstacle at once, after the flipped starts; the default before 2026-12-06, night)",
+    )
+    ap.add_argument(
         "--portfolio-threads",
         type=int,
         default=1,
@@ -162,6 +168,8 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
         options["portfolio_new_side"] = None
     if args.no_flip:
         options["portfolio_flip"] = None
+    if args.no_mirror:
+        options["portfolio_mirror"] = None
     if args.apart is not None:
         options["portfolio_apart"] = args.apart
     if args.barrier_funnel is not None:

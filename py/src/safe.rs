@@ -795,6 +795,11 @@ fn default_position_indices() -> (i64, i64) {
     (a as i64, b as i64)
 }
 
+/// `Settings::portfolio_mirror`'s default as the keyword argument's type.
+fn default_mirror() -> Option<i64> {
+    Settings::default().portfolio_mirror.map(|v| v as i64)
+}
+
 /// The defaults of `SafeCddpSolver`'s keyword arguments (`safe_cddp::Settings::default()`).
 pub(crate) fn safe_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     safe_settings_dict(py, &Settings::default())
@@ -814,6 +819,7 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("portfolio_third_mu", s.portfolio_third_mu)?;
     d.set_item("portfolio_apart", s.portfolio_apart)?;
     d.set_item("portfolio_flip", s.portfolio_flip)?;
+    d.set_item("portfolio_mirror", s.portfolio_mirror)?;
     d.set_item(
         "barrier_funnel",
         s.barrier_funnel.is_finite().then_some(s.barrier_funnel),
@@ -849,6 +855,7 @@ fn settings_from(
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
     portfolio_flip: Option<f64>,
+    portfolio_mirror: Option<i64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -887,6 +894,15 @@ fn settings_from(
         .ok()
         .filter(|v| (1..=2).contains(v))
         .ok_or_else(|| invalid("portfolio_threads", format!("must be 1 or 2, got {portfolio_threads}")))?;
+    let portfolio_mirror = match portfolio_mirror {
+        None => None,
+        Some(v) => Some(usize::try_from(v).ok().filter(|&v| v >= 1).ok_or_else(|| {
+            invalid(
+                "portfolio_mirror",
+                format!("must be at least 1 iteration, or None for no mirrored start, got {v}"),
+            )
+        })?),
+    };
     let s = Settings {
         method,
         max_iterations,
@@ -899,6 +915,7 @@ fn settings_from(
         portfolio_third_mu,
         portfolio_apart,
         portfolio_flip,
+        portfolio_mirror,
         // `None`: no limit.
         barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
         barrier_mu_init,
@@ -1116,6 +1133,7 @@ impl SafeCddpSolver {
                         portfolio_third_mu = Settings::default().portfolio_third_mu,
                         portfolio_apart = Settings::default().portfolio_apart,
                         portfolio_flip = Settings::default().portfolio_flip,
+                        portfolio_mirror = default_mirror(),
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -1125,7 +1143,7 @@ impl SafeCddpSolver {
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_mirror=5, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
     )]
     #[allow(clippy::too_many_arguments)]
@@ -1144,6 +1162,7 @@ impl SafeCddpSolver {
         portfolio_third_mu: Option<f64>,
         portfolio_apart: f64,
         portfolio_flip: Option<f64>,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
         barrier_funnel: Option<f64>,
         barrier_mu_init: f64,
         barrier_relaxation: f64,
@@ -1162,6 +1181,7 @@ impl SafeCddpSolver {
             portfolio_third_mu,
             portfolio_apart,
             portfolio_flip,
+            portfolio_mirror,
             barrier_funnel,
             barrier_mu_init,
             barrier_relaxation,
@@ -1344,7 +1364,8 @@ pub struct SafeSolution {
     /// dict: ``warm_up`` (``"augmented_lagrangian"``, ``"barrier"``, or ``"polish"`` for the
     /// KKT/QP iterations from the kept solution), ``barrier_mu_init`` (the third start's initial
     /// barrier weight, else ``None``), ``flip`` (for a flipped start, ``portfolio_flip``: the
-    /// index of the constraint whose other side it was steered to, else ``None``),
+    /// index of the constraint whose other side it was steered to, else ``None``), ``mirror``
+    /// (``True`` for the start steered to the other side of every obstacle, ``portfolio_mirror``),
     /// ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
     /// on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its homotopy on the
     /// kept solution's sides) or ``"stalled"`` (stopped where, at the rate its cost fell, it
@@ -1451,6 +1472,7 @@ impl SafeSolution {
             )?;
             d.set_item("barrier_mu_init", st.barrier_mu_init)?;
             d.set_item("flip", st.flip)?;
+            d.set_item("mirror", st.mirror)?;
             d.set_item("iterations", st.iterations)?;
             d.set_item("cost", st.cost)?;
             d.set_item("max_violation", st.max_violation)?;
@@ -1652,6 +1674,7 @@ impl Mpc {
             d.portfolio_third_mu,
             d.portfolio_apart,
             d.portfolio_flip,
+            default_mirror(),
             Some(d.barrier_funnel),
             d.barrier_mu_init,
             d.barrier_relaxation,
@@ -1959,6 +1982,7 @@ where
                     portfolio_third_mu = Settings::default().portfolio_third_mu,
                     portfolio_apart = Settings::default().portfolio_apart,
                         portfolio_flip = Settings::default().portfolio_flip,
+                        portfolio_mirror = default_mirror(),
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -1967,7 +1991,7 @@ where
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_mirror=5, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -1988,6 +2012,7 @@ fn solve_batch_safe(
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
     portfolio_flip: Option<f64>,
+    #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -2005,6 +2030,7 @@ fn solve_batch_safe(
         portfolio_third_mu,
         portfolio_apart,
         portfolio_flip,
+        portfolio_mirror,
         barrier_funnel,
         barrier_mu_init,
         barrier_relaxation,

@@ -84,6 +84,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // 0: none.
         s.portfolio_flip = (v > 0.0).then_some(v);
     }
+    if let Some(v) = env("MIRROR") {
+        // 0: none.
+        s.portfolio_mirror = (v > 0.0).then_some(v as usize);
+    }
     if let Some(v) = env("FLIP_GUIDE") {
         s.portfolio_flip_guide = v as usize;
     }

@@ -763,6 +763,7 @@ def solve_batch_safe(
     portfolio_third_mu: Optional[float] = 0.003,
     portfolio_apart: float = 1e-3,
     portfolio_flip: Optional[float] = 1.5,
+    portfolio_mirror: Optional[int] = 5,
     barrier_funnel: Optional[float] = 0.03,
     barrier_mu_init: float = 0.03,
     barrier_relaxation: float = 0.1,
@@ -1387,7 +1388,11 @@ class SafeCddpSolver:
     start per binding state row, steered to its
     far side (a guide half-space past the row's far boundary along its gradient, for 25
     augmented-Lagrangian iterations from the guess, then lifted) and kept when better: a path
-    between two obstacles where every other start went round them (``None``: none).
+    between two obstacles where every other start went round them (``None``: none, and no
+    mirrored start either). After them, behind the same gate, one more start steered to the far
+    side of every obstacle at once (each at its own closest approach, for ``portfolio_mirror``
+    iterations, then lifted): the way round the other side of a whole cluster, which no single
+    flip reaches (``None``: none).
     ``portfolio_threads``: 1, or 2 to run the portfolio's first two starts at once on two
     threads (the same solution and iterations, less wall time). ``barrier_funnel`` (``None``: no
     limit): after the barrier hands over, the augmented Lagrangian's trial steps may not pass
@@ -1421,6 +1426,7 @@ class SafeCddpSolver:
         portfolio_third_mu: Optional[float] = 0.003,
         portfolio_apart: float = 1e-3,
         portfolio_flip: Optional[float] = 1.5,
+        portfolio_mirror: Optional[int] = 5,
         barrier_funnel: Optional[float] = 0.03,
         barrier_mu_init: float = 0.03,
         barrier_relaxation: float = 0.1,
@@ -1510,7 +1516,8 @@ class SafeSolution:
         each a dict: ``warm_up`` (``"augmented_lagrangian"``, ``"barrier"``, or ``"polish"`` for
         the KKT/QP iterations from the kept solution), ``barrier_mu_init`` (the third start's
         initial barrier weight, else ``None``), ``flip`` (a flipped start's constraint index,
-        ``portfolio_flip``, else ``None``), ``iterations``, ``cost``, ``max_violation``
+        ``portfolio_flip``, else ``None``), ``mirror`` (``True`` for the start steered to the
+        other side of every obstacle, ``portfolio_mirror``), ``iterations``, ``cost``, ``max_violation``
         (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the
         polish went on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its
         homotopy on the kept solution's sides) or ``"stalled"`` (stopped where, at the rate its

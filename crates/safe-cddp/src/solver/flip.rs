@@ -17,6 +17,12 @@
 //! guess runs [`crate::Settings::portfolio_flip_guide`] iterations with the guide row, then the
 //! guide is lifted and the start goes on, its multipliers and penalty kept, to its own optimum,
 //! which is kept when better.
+//!
+//! A path round a whole cluster on one side, where the better one goes round it on the other,
+//! touches only one or two of its obstacles, and the flipped start of one of them ends between
+//! them. The mirrored start ([`crate::Settings::portfolio_mirror`]) follows the flipped ones:
+//! the guide row then has a target for every state row at once, each at the row's own most
+//! active time on the kept trajectory (binding or not), built as a flipped start's.
 
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -29,12 +35,11 @@ use super::{better, SafeCddpSolver};
 use crate::settings::{StartOutcome, StartReport, WarmUp};
 use crate::Constraint;
 
-/// The guide row: `b - a' x_t <= 0` at one time `t`, `-1` (inactive) at every other time and
-/// when lifted. Its fields are atomics so that the solver can move it between starts through the
-/// shared `Arc` its guide solver holds.
+/// One target of the guide row: `b - a' x_t <= 0` at time `t` (`usize::MAX`: unused). Its fields
+/// are atomics so that the solver can move it between starts through the shared `Arc` its guide
+/// solver holds.
 #[derive(Debug)]
-pub(crate) struct GuideRow {
-    /// The time it binds (`usize::MAX`: lifted).
+struct Target {
     t: AtomicUsize,
     /// `b` as bits.
     b: AtomicU64,
@@ -42,27 +47,48 @@ pub(crate) struct GuideRow {
     a: Vec<AtomicU64>,
 }
 
+/// The guide row: its targets at their times (one for a flipped start, one per state row for the
+/// mirrored start), `-1` (inactive) at every other time and when lifted.
+#[derive(Debug)]
+pub(crate) struct GuideRow {
+    targets: Vec<Target>,
+}
+
 impl GuideRow {
-    fn new(nx: usize) -> Self {
-        Self {
+    fn new(nx: usize, capacity: usize) -> Self {
+        let target = || Target {
             t: AtomicUsize::new(usize::MAX),
             b: AtomicU64::new(0),
             a: (0..nx).map(|_| AtomicU64::new(0)).collect(),
+        };
+        Self {
+            targets: (0..capacity.max(1)).map(|_| target()).collect(),
         }
     }
 
-    fn set(&self, t: usize, a: &[f64], b: f64) {
-        for (slot, &v) in self.a.iter().zip(a) {
+    /// Sets target `i` (the others keep theirs).
+    fn set(&self, i: usize, t: usize, a: &[f64], b: f64) {
+        let target = &self.targets[i];
+        for (slot, &v) in target.a.iter().zip(a) {
             slot.store(v.to_bits(), Ordering::Relaxed);
         }
-        self.b.store(b.to_bits(), Ordering::Relaxed);
-        self.t.store(t, Ordering::Relaxed);
+        target.b.store(b.to_bits(), Ordering::Relaxed);
+        target.t.store(t, Ordering::Relaxed);
     }
 
     fn lift(&self) {
-        self.t.store(usize::MAX, Ordering::Relaxed);
+        for target in &self.targets {
+            target.t.store(usize::MAX, Ordering::Relaxed);
+        }
     }
 
+    /// The target at time `t`, if any.
+    fn at(&self, t: usize) -> Option<&Target> {
+        self.targets.iter().find(|x| x.t.load(Ordering::Relaxed) == t)
+    }
+}
+
+impl Target {
     fn a(&self, i: usize) -> f64 {
         f64::from_bits(self.a[i].load(Ordering::Relaxed))
     }
@@ -81,11 +107,12 @@ where
     }
 
     fn evaluate(&self, t: usize, x: &VectorN<NX>, _u: &VectorN<NU>, g: &mut [f64]) {
-        g[0] = if t == self.t.load(Ordering::Relaxed) {
-            let ax: f64 = x.iter().enumerate().map(|(i, &xi)| self.a(i) * xi).sum();
-            f64::from_bits(self.b.load(Ordering::Relaxed)) - ax
-        } else {
-            -1.0
+        g[0] = match self.at(t) {
+            Some(target) => {
+                let ax: f64 = x.iter().enumerate().map(|(i, &xi)| target.a(i) * xi).sum();
+                f64::from_bits(target.b.load(Ordering::Relaxed)) - ax
+            }
+            None => -1.0,
         };
     }
 
@@ -99,12 +126,20 @@ where
         g_u: &mut [VectorN<NU>],
     ) {
         <Self as Constraint<NX, NU>>::evaluate(self, t, x, u, g);
-        let on = t == self.t.load(Ordering::Relaxed);
+        let target = self.at(t);
         for (i, e) in g_x[0].iter_mut().enumerate() {
-            *e = if on { -self.a(i) } else { 0.0 };
+            *e = target.map_or(0.0, |target| -target.a(i));
         }
         g_u[0].fill(0.0);
     }
+}
+
+/// A start steered by the guide row: to the far side of one state constraint, or of every state
+/// row at once.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Guided {
+    Flip(usize),
+    Mirror,
 }
 
 /// The buffers of the flipped starts, built at the first solve that runs one.
@@ -133,7 +168,7 @@ where
     pub fn new(dims: ddp_core::Dims<NX, NU>, max_dim: usize, state_rows: usize) -> Self {
         Self {
             guide: None,
-            row: Arc::new(GuideRow::new(dims.nx())),
+            row: Arc::new(GuideRow::new(dims.nx(), state_rows)),
             free: None,
             binding: Vec::with_capacity(state_rows),
             g: vec![0.0; max_dim.max(1)],
@@ -302,7 +337,8 @@ where
         }
         self.measure_sides(true);
         self.binding_rows();
-        let n = self.core.n;
+        // No target left over from a start that returned early with an error.
+        self.portfolio.flips.row.lift();
         let mut kept_any = false;
         for i in 0..self.portfolio.flips.binding.len() {
             let (_, j, r, row) = self.portfolio.flips.binding[i];
@@ -313,63 +349,133 @@ where
             };
             let degree = self.rows.slots[j].degree;
             self.prepare_guide(problem, degree)?;
-            let f = &mut self.portfolio.flips;
-            f.row.set(t, &f.a, b);
-            let (_, guide) = f.guide.as_mut().expect("prepared above");
-            guide.core.traj.us[..n].clone_from_slice(&self.portfolio.guess[..n]);
-            guide.forget();
-            guide.portfolio.member = Some(WarmUp::AugmentedLagrangian);
-            guide.settings.max_iterations = self.settings.portfolio_flip_guide;
-            guide.solve_from_start(problem)?;
-            let guided = guide.report.iterations;
-            let guided_qps = guide.report.qp;
-            f.row.lift();
-            guide.settings.max_iterations = self.settings.max_iterations;
-            // Still the augmented Lagrangian (not the barrier of a cold portfolio start), with the
-            // guided iterations' multipliers and penalty; stopped where it crawls above the kept
-            // cost (`Settings::portfolio_stall`).
-            guide.portfolio.beat = (self.settings.portfolio_stall > 0).then_some(self.report.cost);
-            guide.solve_from_start(problem)?;
-            guide.portfolio.beat = None;
-            let stalled = std::mem::take(&mut guide.portfolio.stalled);
-            guide.portfolio.member = None;
-            guide.report.iterations += guided;
-            guide.report.qp += guided_qps;
-            let r = &guide.report;
-            let keep = !stalled && better(r, &self.report, tol);
-            let mut entry = StartReport {
-                warm_up: WarmUp::AugmentedLagrangian,
-                barrier_mu_init: None,
-                flip: Some(j),
-                iterations: r.iterations,
-                cost: r.cost,
-                max_violation: r.max_violation_tightened,
-                status: r.status,
-                outcome: StartOutcome::Discarded,
-            };
-            if keep {
-                // The solution given up: the kept start's, and the one its polish went on from.
-                for previous in self.portfolio.starts.iter_mut() {
-                    if matches!(previous.outcome, StartOutcome::Kept | StartOutcome::Polished) {
-                        previous.outcome = StartOutcome::Discarded;
-                    }
-                }
-                entry.outcome = StartOutcome::Kept;
-                *discarded += self.report.iterations;
-                *discarded_qps += self.report.qp;
-                self.report.clone_from(&guide.report);
-                self.portfolio.best[..n].clone_from_slice(&guide.core.traj.us[..n]);
-                kept_any = true;
-            } else {
-                if stalled {
-                    entry.outcome = StartOutcome::Stalled;
-                }
-                *discarded += r.iterations;
-                *discarded_qps += r.qp;
-            }
-            self.portfolio.starts.push(entry);
+            let f = &self.portfolio.flips;
+            f.row.set(0, t, &f.a, b);
+            let guide_iterations = self.settings.portfolio_flip_guide;
+            kept_any |= self.guided_start(problem, Guided::Flip(j), guide_iterations, discarded, discarded_qps)?;
+        }
+        if let Some(guide_iterations) = self.settings.portfolio_mirror {
+            kept_any |= self.mirror_start(problem, guide_iterations, discarded, discarded_qps)?;
         }
         Ok(kept_any)
+    }
+
+    /// [`crate::Settings::portfolio_mirror`]: the start round the other side of the whole
+    /// cluster, one guide target per state row with a far side (each at the row's most active
+    /// time on the solution kept before the flipped starts), when two or more have one at
+    /// distinct times (the first target at a time is taken) and all of one relative degree.
+    /// Returns whether it was kept.
+    fn mirror_start(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        guide_iterations: usize,
+        discarded: &mut usize,
+        discarded_qps: &mut crate::qp::QpStats,
+    ) -> Result<bool> {
+        let (mut count, mut degree, mut mixed_degrees) = (0, None, false);
+        let mut i = 0;
+        for j in 0..self.rows.slots.len() {
+            let slot = self.rows.slots[j];
+            if slot.mixed {
+                continue;
+            }
+            for r in 0..slot.dim {
+                let row = i;
+                i += 1;
+                let Some((t, b)) = self.guide_for(j, r, row) else {
+                    continue;
+                };
+                mixed_degrees |= *degree.get_or_insert(slot.degree) != slot.degree;
+                let f = &self.portfolio.flips;
+                if f.row.at(t).is_none() {
+                    f.row.set(count, t, &f.a, b);
+                    count += 1;
+                }
+            }
+        }
+        let degree = match degree {
+            Some(d) if count >= 2 && !mixed_degrees => d,
+            _ => {
+                self.portfolio.flips.row.lift();
+                return Ok(false);
+            }
+        };
+        self.prepare_guide(problem, degree)?;
+        self.guided_start(problem, Guided::Mirror, guide_iterations, discarded, discarded_qps)
+    }
+
+    /// One guided start on the guide solver (its targets set): from the initial guess with the
+    /// guide for `guide_iterations`, then lifted, to its own optimum; kept when better than the
+    /// kept solution (this solver's report and `portfolio.best` then become its). Returns
+    /// whether it was kept.
+    fn guided_start(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        start: Guided,
+        guide_iterations: usize,
+        discarded: &mut usize,
+        discarded_qps: &mut crate::qp::QpStats,
+    ) -> Result<bool> {
+        let n = self.core.n;
+        let tol = self.settings.constraint_tolerance;
+        let f = &mut self.portfolio.flips;
+        let (_, guide) = f.guide.as_mut().expect("prepared by the caller");
+        guide.core.traj.us[..n].clone_from_slice(&self.portfolio.guess[..n]);
+        guide.forget();
+        guide.portfolio.member = Some(WarmUp::AugmentedLagrangian);
+        guide.settings.max_iterations = guide_iterations;
+        guide.solve_from_start(problem)?;
+        let guided = guide.report.iterations;
+        let guided_qps = guide.report.qp;
+        f.row.lift();
+        guide.settings.max_iterations = self.settings.max_iterations;
+        // Still the augmented Lagrangian (not the barrier of a cold portfolio start), with the
+        // guided iterations' multipliers and penalty; stopped where it crawls above the kept
+        // cost (`Settings::portfolio_stall`).
+        guide.portfolio.beat = (self.settings.portfolio_stall > 0).then_some(self.report.cost);
+        guide.solve_from_start(problem)?;
+        guide.portfolio.beat = None;
+        let stalled = std::mem::take(&mut guide.portfolio.stalled);
+        guide.portfolio.member = None;
+        guide.report.iterations += guided;
+        guide.report.qp += guided_qps;
+        let r = &guide.report;
+        let keep = !stalled && better(r, &self.report, tol);
+        let mut entry = StartReport {
+            warm_up: WarmUp::AugmentedLagrangian,
+            barrier_mu_init: None,
+            flip: match start {
+                Guided::Flip(j) => Some(j),
+                Guided::Mirror => None,
+            },
+            mirror: start == Guided::Mirror,
+            iterations: r.iterations,
+            cost: r.cost,
+            max_violation: r.max_violation_tightened,
+            status: r.status,
+            outcome: StartOutcome::Discarded,
+        };
+        if keep {
+            // The solution given up: the kept start's, and the one its polish went on from.
+            for previous in self.portfolio.starts.iter_mut() {
+                if matches!(previous.outcome, StartOutcome::Kept | StartOutcome::Polished) {
+                    previous.outcome = StartOutcome::Discarded;
+                }
+            }
+            entry.outcome = StartOutcome::Kept;
+            *discarded += self.report.iterations;
+            *discarded_qps += self.report.qp;
+            self.report.clone_from(&guide.report);
+            self.portfolio.best[..n].clone_from_slice(&guide.core.traj.us[..n]);
+        } else {
+            if stalled {
+                entry.outcome = StartOutcome::Stalled;
+            }
+            *discarded += r.iterations;
+            *discarded_qps += r.qp;
+        }
+        self.portfolio.starts.push(entry);
+        Ok(keep)
     }
 
     /// Builds the solver of the flipped starts when there is none or when it no longer matches

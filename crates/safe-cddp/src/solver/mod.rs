@@ -685,6 +685,7 @@ where
                 warm_up,
                 barrier_mu_init,
                 flip: None,
+                mirror: false,
                 iterations: r.iterations,
                 cost: r.cost,
                 max_violation: r.max_violation_tightened,

@@ -208,3 +208,30 @@ fn non_finite_dynamics_is_a_status_not_a_panic() {
     let mut solver = Solver::new(&p, Settings::default()).unwrap();
     assert_eq!(solver.solve(&p).unwrap().status, ddp_core::Status::NumericalError);
 }
+
+#[test]
+fn a_huge_iteration_limit_allocates_a_bounded_log() {
+    // 2^40 iterations would be 2^40 log rows allocated up front (an abort, not an error); the
+    // log is preallocated up to `LOG_PREALLOCATED` rows and the solve runs to convergence.
+    let p = lq(10, Vector::<2>::new(1.0, 0.0)).unwrap();
+    for shooting in [Shooting::Single, Shooting::Multiple] {
+        let settings = Settings {
+            max_iterations: 1 << 40,
+            shooting,
+            ..Settings::default()
+        };
+        let mut s = Solver::new(&p, settings).unwrap();
+        let r = s.solve(&p).unwrap();
+        assert_eq!(r.status, ddp_core::Status::Converged);
+        assert!(r.log.capacity() <= 2 * ddp_core::solver::LOG_PREALLOCATED);
+        s.set_settings(Settings {
+            max_iterations: usize::MAX,
+            shooting,
+            ..Settings::default()
+        })
+        .unwrap();
+        assert_eq!(s.solve(&p).unwrap().status, ddp_core::Status::Converged);
+    }
+    assert_eq!(ddp_core::solver::log_rows(usize::MAX), ddp_core::solver::LOG_PREALLOCATED);
+    assert_eq!(ddp_core::solver::log_rows(200), 201);
+}

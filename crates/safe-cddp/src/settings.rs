@@ -752,8 +752,9 @@ pub struct Report {
     pub tightenings: usize,
     /// QP counters (all forward passes of the solve, every start of a [`WarmUp::Portfolio`]).
     pub qp: QpStats,
-    /// Iterations not logged because `log` was full (its capacity is `max_iterations + 1`; an
-    /// MPC that drives [`crate::SafeCddpSolver::iterate`] by hand may go past it).
+    /// Iterations not logged because `log` was full (its capacity is `max_iterations + 1`, at
+    /// most [`ddp_core::solver::LOG_PREALLOCATED`]; an MPC that drives
+    /// [`crate::SafeCddpSolver::iterate`] by hand may go past it).
     pub log_dropped: usize,
     /// Iterations of the [`WarmUp::Portfolio`] start whose solution was not kept (not in
     /// `iterations` or `log`).

@@ -103,3 +103,21 @@ fn safe_batch_bad_input_names_the_field() {
     let e = solve_batch(&items(2), &settings, Some(2)).unwrap_err();
     assert!(e.to_string().contains("max_iterations"), "{e}");
 }
+
+#[test]
+fn a_huge_iteration_limit_allocates_a_bounded_log() {
+    // 2^40 iterations used to mean 2^40 log rows allocated up front in each of the solver's
+    // reports (an abort); the logs are preallocated up to `LOG_PREALLOCATED` rows.
+    let settings = Settings {
+        max_iterations: 1 << 40,
+        ..Settings::default()
+    };
+    let item = &items(1)[0];
+    let huge = alone(item, settings);
+    let plain = alone(item, Settings::default());
+    assert_eq!(huge.report.status, plain.report.status);
+    assert_eq!(huge.report.cost.to_bits(), plain.report.cost.to_bits());
+    assert!(huge.report.log.capacity() <= 2 * ddp_core::solver::LOG_PREALLOCATED);
+    let two = solve_batch(&items(2), &settings, Some(2)).unwrap();
+    assert_eq!(two.len(), 2);
+}

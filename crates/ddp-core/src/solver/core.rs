@@ -915,7 +915,8 @@ where
     }
 
     /// Single or multiple shooting from now on: allocates multiple shooting's buffers when it
-    /// is switched on (room for `max_iterations` filter entries), drops them when it is off.
+    /// is switched on (room for `max_iterations` filter entries, at most
+    /// [`super::LOG_PREALLOCATED`]), drops them when it is off.
     pub fn set_shooting(&mut self, shooting: Shooting, max_iterations: usize) {
         match shooting {
             Shooting::Single => self.ms = None,
@@ -924,9 +925,13 @@ where
                 match self.ms.as_mut() {
                     Some(ms) if ms.gaps.len() == capacity => {
                         // At most one filter entry per iteration: room for them all now.
-                        ms.filter.reserve(max_iterations.saturating_sub(ms.filter.len()));
+                        let entries = max_iterations.min(super::LOG_PREALLOCATED);
+                        ms.filter.reserve(entries.saturating_sub(ms.filter.len()));
                     }
-                    _ => self.ms = Some(MultipleShooting::new(self.dims, capacity, max_iterations)),
+                    _ => {
+                        let entries = max_iterations.min(super::LOG_PREALLOCATED);
+                        self.ms = Some(MultipleShooting::new(self.dims, capacity, entries))
+                    }
                 }
             }
         }

@@ -36,8 +36,8 @@ pub use self::core::{
     ShootingTerms, Trajectory, Trial, ValueFunction,
 };
 pub use self::settings::{
-    IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings, Shooting,
-    Status, Tolerances, MAX_THREADS,
+    log_rows, IterationLog, LineSearchSettings, Method, Regularization, RegularizationSettings, Report, Settings,
+    Shooting, Status, Tolerances, LOG_PREALLOCATED, MAX_THREADS,
 };
 pub use self::shooting::{MultipleShooting, DEFECT_TOLERANCE};
 
@@ -104,7 +104,7 @@ where
         Ok(Self {
             settings,
             core,
-            report: Report::new(settings.max_iterations + 1),
+            report: Report::new(log_rows(settings.max_iterations)),
         })
     }
 
@@ -118,10 +118,9 @@ where
         settings.validate()?;
         self.core.set_derivative_threads(settings.derivative_threads)?;
         self.core.set_shooting(settings.shooting, settings.max_iterations);
-        if settings.max_iterations + 1 > self.report.log.capacity() {
-            self.report
-                .log
-                .reserve(settings.max_iterations + 1 - self.report.log.len());
+        let rows = log_rows(settings.max_iterations);
+        if rows > self.report.log.capacity() {
+            self.report.log.reserve(rows - self.report.log.len());
         }
         self.settings = settings;
         Ok(())

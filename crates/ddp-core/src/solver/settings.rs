@@ -6,6 +6,19 @@ use std::time::Duration;
 
 use crate::error::{Error, Result};
 
+/// The most iteration-log rows (and multiple shooting's filter entries) a solver allocates up
+/// front, however large `max_iterations` is: a solve past them grows its log as it goes (and
+/// Safe-CDDP's stops logging and counts the rest in its report's `log_dropped`), rather than
+/// allocating `max_iterations` rows at construction, which for a large value (`2^40`, say)
+/// would abort the process.
+pub const LOG_PREALLOCATED: usize = 1 << 16;
+
+/// The rows to allocate for the log of `max_iterations` iterations (one more for the initial
+/// row), at most [`LOG_PREALLOCATED`].
+pub fn log_rows(max_iterations: usize) -> usize {
+    max_iterations.saturating_add(1).min(LOG_PREALLOCATED)
+}
+
 /// iLQR (first-order dynamics) or full DDP (adds `V_x' . f_xx` terms when the model has them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {

@@ -282,7 +282,7 @@ where
         let m = rows.m;
         // Room in the reports for every start, the flipped ones too (one per state row).
         let report = || {
-            let mut r = Report::new(settings.max_iterations + 1);
+            let mut r = Report::new(ddp_core::solver::log_rows(settings.max_iterations));
             r.starts.reserve_exact(MAX_STARTS + state_rows);
             r
         };
@@ -339,9 +339,10 @@ where
     /// Replaces the settings (validated; the log grows if `max_iterations` grows).
     pub fn set_settings(&mut self, settings: Settings) -> Result<()> {
         settings.validate()?;
+        let rows = ddp_core::solver::log_rows(settings.max_iterations);
         for report in [&mut self.report, &mut self.portfolio.report] {
-            if settings.max_iterations + 1 > report.log.capacity() {
-                report.log.reserve(settings.max_iterations + 1 - report.log.len());
+            if rows > report.log.capacity() {
+                report.log.reserve(rows - report.log.len());
             }
         }
         self.fwd.qp.set_method(settings.qp_method);

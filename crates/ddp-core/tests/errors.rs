@@ -232,6 +232,9 @@ fn a_huge_iteration_limit_allocates_a_bounded_log() {
         .unwrap();
         assert_eq!(s.solve(&p).unwrap().status, ddp_core::Status::Converged);
     }
-    assert_eq!(ddp_core::solver::log_rows(usize::MAX), ddp_core::solver::LOG_PREALLOCATED);
+    assert_eq!(
+        ddp_core::solver::log_rows(usize::MAX),
+        ddp_core::solver::LOG_PREALLOCATED
+    );
     assert_eq!(ddp_core::solver::log_rows(200), 201);
 }

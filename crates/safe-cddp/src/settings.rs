@@ -213,10 +213,10 @@ pub struct Settings {
     /// time on the kept solution (the guide's targets as a flipped start's, all in one guide
     /// row), for this many iterations, then without them to its own optimum, kept when better:
     /// the way round the other side of a whole cluster of obstacles, which no start flipping one
-    /// obstacle reaches (on `point-s1-i21-a0` the kept path passes all four obstacles on one side
-    /// and the flipped start of the one that binds ends 67 % above the peers' optimum, which
-    /// passes all four on the other). Only where two or more rows have a far side at distinct
-    /// times and all state rows share one relative degree. With the default `Some(5)` the
+    /// obstacle reaches (on `point-s1-i21-a0` the kept path passes all four obstacles on one side,
+    /// 35 % above the peers' optimum, which passes all four on the other, and the flipped start
+    /// of the one that binds ends 126 % above it). Only where two or more rows have a far side
+    /// at distinct times, all of one relative degree. With the default `Some(5)` the
     /// family replays of ten seeds match the peers' best on 1995 of 2100 problems instead of
     /// 1969, and end more than 5 % above it on 21 instead of 32, for 1.06x the time
     /// (`bench/peers/README.md`, "The other side of a whole cluster"). `None`: no such start.

@@ -373,16 +373,16 @@ where
         discarded_qps: &mut crate::qp::QpStats,
     ) -> Result<bool> {
         let (mut count, mut degree, mut mixed_degrees) = (0, None, false);
-        let mut i = 0;
+        // `row` counts the state rows, as `Sides` does.
+        let mut row = 0;
         for j in 0..self.rows.slots.len() {
             let slot = self.rows.slots[j];
             if slot.mixed {
                 continue;
             }
             for r in 0..slot.dim {
-                let row = i;
-                i += 1;
-                let Some((t, b)) = self.guide_for(j, r, row) else {
+                row += 1;
+                let Some((t, b)) = self.guide_for(j, r, row - 1) else {
                     continue;
                 };
                 mixed_degrees |= *degree.get_or_insert(slot.degree) != slot.degree;

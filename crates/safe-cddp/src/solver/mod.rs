@@ -1164,11 +1164,26 @@ where
                 converged: false,
             });
         }
-        if gradient < tol && self.it.violation_max <= self.settings.constraint_tolerance {
+        // The projected gradient vanishes on every working set that absorbs `Q_u`, also one
+        // holding rows off their boundary (kept for their positive multipliers just after a
+        // hand-over): that is not a KKT point, whose step still has to close the rows' slack.
+        if gradient < tol && self.it.violation_max <= self.settings.constraint_tolerance && self.working_set_active() {
             self.log(iteration, 0.0, false);
             return Some(IterationOutcome::Converged);
         }
         None
+    }
+
+    /// Whether every row of the last backward pass's working sets is active (within
+    /// [`Settings::active_threshold`] of its boundary).
+    fn working_set_active(&self) -> bool {
+        let (nu, m) = (self.dims().nu(), self.rows.m);
+        let eps = self.settings.active_threshold;
+        (0..self.core.n).all(|k| {
+            self.kkt.ws[k * nu..k * nu + self.kkt.ws_len[k]]
+                .iter()
+                .all(|&i| self.rows.g[k * m + i] + self.rows.margin[k * m + i] >= -eps)
+        })
     }
 
     /// The line search on the merit: the warm-up rolls out the core's feedback policy, the

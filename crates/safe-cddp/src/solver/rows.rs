@@ -372,6 +372,18 @@ where
         }
     }
 
+    /// Whether the augmented Lagrangian's multipliers `lambda` (penalty `rho`) are complementary
+    /// to the rows of the last linearisation within `eps`: `min(-g~, lambda / rho) <= eps` on
+    /// every constraint row (the control bounds hold by projection), the measure of Conn, Gould
+    /// and Toint (1991) that the update `lambda <- max(0, lambda + rho g~)` leaves the
+    /// multipliers of rows off their boundary (nearly) unchanged only when they are zero.
+    pub fn complementary(&self, lambda: &[f64], rho: f64, n: usize, eps: f64) -> bool {
+        (0..n).all(|k| {
+            (k * self.m..k * self.m + self.bound_offset)
+                .all(|i| !self.present[i] || (-(self.g[i] + self.margin[i])).min(lambda[i] / rho) <= eps)
+        })
+    }
+
     /// The merit term of the constraint rows (the control bounds hold by projection), the
     /// largest violation of a tightened row, and the largest at a knot with two or more
     /// violated rows, along `(xs, us)` (rows are visited knot by knot).

@@ -126,7 +126,13 @@ where
     /// hands over to the KKT phase once the violation is small. `inner_done`: the inner solve
     /// converged (rather than hitting `al_inner_iterations`). Returns whether the warm-up itself
     /// has converged, which counts only after a failed KKT/QP iteration in this solve: the inner
-    /// solve converged on a trajectory within `constraint_tolerance`.
+    /// solve converged on a trajectory within `constraint_tolerance` whose multipliers are
+    /// complementary ([`Rows::complementary`] within `active_threshold`). Without that last test
+    /// a stationary point of the merit whose rows sit off their boundary but still carry
+    /// multipliers counted as converged: the multipliers of an earlier inner solve held the path
+    /// away from the obstacles, at any cost (`point-s12-i24-a0` of the problem family: 78.1
+    /// against the peers' 1.41, a loop round two overlapping obstacles; P2's start stopped 2.5e-5
+    /// above its optimum).
     pub(super) fn update_multipliers(&mut self, problem: &Problem<NX, NU>, inner_done: bool) -> bool {
         if self.it.need_linearize {
             self.linearize_now(problem);
@@ -140,7 +146,12 @@ where
         }
         let s = self.settings;
         let w = &mut self.warm;
-        let converged = w.kkt_failed && inner_done && self.it.violation_max <= s.constraint_tolerance;
+        let converged = w.kkt_failed
+            && inner_done
+            && self.it.violation_max <= s.constraint_tolerance
+            && self
+                .rows
+                .complementary(&w.lambda, w.rho, self.core.n, s.active_threshold);
         w.inner = 0;
         let previous_max = w.prev_violation;
         w.prev_violation = self.it.violation_max;

@@ -71,6 +71,9 @@ pub struct Settings {
     /// A trajectory is feasible when no (tightened) row exceeds this.
     pub constraint_tolerance: f64,
     /// `epsilon` of the active set: a row with `g~ > -epsilon` enters the backward pass (Xie et al.).
+    /// A row farther off its boundary is inactive, so a solve converges only where such rows
+    /// carry no multiplier: in the working set of the KKT/QP iterations, and in the augmented
+    /// Lagrangian's `min(-g~, lambda / rho) <= epsilon` (Conn, Gould and Toint 1991).
     pub active_threshold: f64,
     /// Regularisation `mu` of `Q_uu + mu I` and its schedule (shared with [`ddp_core::Solver`]).
     pub regularization: RegularizationSettings,

@@ -233,13 +233,6 @@ const FREE_ITERATIONS: usize = 50;
 /// the peers' optimum by 26 %).
 const BINDING_MARGIN: f64 = 1e-4;
 
-/// A state row whose largest value on the kept solution comes within this of zero binds it
-/// ([`SafeCddpSolver::binding_rows`]), even with no multiplier: a solution the augmented
-/// Lagrangian or the barrier ends a little inside its boundary (a few 1e-5 on `car-s7-i55-a0`
-/// of the problem family) still passes the row on one side, and its flipped start is the one
-/// that finds the other (with only the constraint tolerance, that problem ran none and missed
-/// the peers' optimum by 26 %).
-
 impl<NX: Dim, NU: Dim> SafeCddpSolver<NX, NU>
 where
     DefaultAllocator: Alloc<NX, NU>,

@@ -27,6 +27,20 @@ fn solve_json(json: &str, settings: Settings) -> Report {
     solver.solve(&problem).unwrap().clone()
 }
 
+/// The default solve of a family problem, converged and feasible at FATROP's cost or lower.
+fn solve_to_fatrop(json: &str, fatrop: f64) -> Report {
+    let r = solve_json(json, Settings::default());
+    assert_eq!(r.status, Status::Converged);
+    assert!(r.max_violation <= 1e-8);
+    assert!(
+        r.cost <= fatrop * (1.0 + 1e-6),
+        "{} against FATROP's {fatrop}\n{}",
+        r.cost,
+        r.table()
+    );
+    r
+}
+
 fn warm_up(warm_up: WarmUp) -> Settings {
     Settings {
         warm_up,
@@ -58,15 +72,7 @@ fn no_start_converges_with_rows_off_their_boundary_in_its_working_set() {
     // The barrier start's KKT/QP iterations took over with four rows off their boundary in the
     // working set (their multipliers positive after the hand-over): the projected gradient was
     // zero, and the loop round the obstacles counted as converged (78.3).
-    let r = solve_json(POINT_S12_I24, Settings::default());
-    assert_eq!(r.status, Status::Converged);
-    assert!(r.max_violation <= 1e-8);
-    assert!(
-        r.cost <= POINT_S12_I24_FATROP * (1.0 + 1e-6),
-        "{} against FATROP's {POINT_S12_I24_FATROP}\n{}",
-        r.cost,
-        r.table()
-    );
+    let r = solve_to_fatrop(POINT_S12_I24, POINT_S12_I24_FATROP);
     let barrier = &r.starts[1];
     assert_eq!((barrier.warm_up, barrier.barrier_mu_init), (WarmUp::Barrier, None));
     assert!(
@@ -81,15 +87,7 @@ fn a_row_passed_a_little_inside_its_boundary_binds() {
     // The kept solution before the flipped starts passes two obstacles a few 1e-5 inside their
     // boundary with zero multipliers: they still bind, and the flipped start of one of them
     // finds the optimum.
-    let r = solve_json(CAR_S7_I55, Settings::default());
-    assert_eq!(r.status, Status::Converged);
-    assert!(r.max_violation <= 1e-8);
-    assert!(
-        r.cost <= CAR_S7_I55_FATROP * (1.0 + 1e-6),
-        "{} against FATROP's {CAR_S7_I55_FATROP}\n{}",
-        r.cost,
-        r.table()
-    );
+    let r = solve_to_fatrop(CAR_S7_I55, CAR_S7_I55_FATROP);
     let flips: Vec<_> = r.starts.iter().filter(|s| s.flip.is_some()).collect();
     assert!(!flips.is_empty(), "{}", r.table());
     let kept = r.starts.iter().find(|s| s.outcome == StartOutcome::Kept).unwrap();

@@ -299,8 +299,6 @@ def obstacle_problem(dynamics) -> ddpkit.Problem:
 
 
 OBSTACLES = [(1.0, 1.1, 0.4), (2.0, 1.9, 0.4), (2.6, 2.9, 0.25)]
-#: Iterations for the tightened solves of `obstacle_problem` (about 210 needed).
-MAX_ITERATIONS_TIGHTENED = 300
 
 
 def traced_obstacles() -> ddpkit.Constraint:
@@ -313,13 +311,10 @@ def traced_obstacles() -> ddpkit.Constraint:
 def test_safe_cddp_with_traced_constraints_equals_the_built_in_circles() -> None:
     built_in = [ddpkit.Circle((ox, oy), r) for ox, oy, r in OBSTACLES]
     tight = ddpkit.Tightening(beta=0.9, sigma_w=0.001 * np.eye(4))
-    # The margins are refreshed about 20 times on the way (Algorithm 1), each followed by a
-    # re-entered warm-up: the solve takes about 210 iterations, beyond the default 200.
-    kw = dict(tightening=tight, max_iterations=MAX_ITERATIONS_TIGHTENED)
-    a = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), built_in, **kw).solve()
+    a = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), built_in, tightening=tight).solve()
     c = traced_obstacles()
     assert c.dim == 3 and not c.depends_on_control
-    b = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [c], **kw).solve()
+    b = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [c], tightening=tight).solve()
     assert a.converged and b.converged
     assert b.cost == pytest.approx(a.cost, rel=1e-8)
     assert b.max_violation <= 1e-6
@@ -327,7 +322,7 @@ def test_safe_cddp_with_traced_constraints_equals_the_built_in_circles() -> None
     def di(x, u):
         return np.array([x[0] + 0.05 * x[2] + 0.00125 * u[0], x[1] + 0.05 * x[3] + 0.00125 * u[1], x[2] + 0.05 * u[0], x[3] + 0.05 * u[1]])
 
-    d = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.Dynamics.from_function(di, nx=4, nu=2)), [c], **kw).solve()
+    d = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.Dynamics.from_function(di, nx=4, nu=2)), [c], tightening=tight).solve()
     assert d.converged and d.cost == pytest.approx(a.cost, rel=1e-6)
 
 
@@ -501,9 +496,9 @@ def obstacle_rows(x):
 def test_callable_constraints_are_the_slow_path_with_finite_differences() -> None:
     slow = ddpkit.Constraint.from_callable(obstacle_rows, nx=4, rows=3)
     assert isinstance(slow, ddpkit.CallableConstraint) and slow.rows == 3
-    kw = dict(tightening=ddpkit.Tightening(beta=0.9, sigma_w=0.001 * np.eye(4)), max_iterations=MAX_ITERATIONS_TIGHTENED)
-    fast = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [traced_obstacles()], **kw).solve()
-    sol = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [slow], **kw).solve()
+    tight = ddpkit.Tightening(beta=0.9, sigma_w=0.001 * np.eye(4))
+    fast = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [traced_obstacles()], tightening=tight).solve()
+    sol = ddpkit.SafeCddpSolver(obstacle_problem(ddpkit.DoubleIntegrator2D(dt=0.05)), [slow], tightening=tight).solve()
     assert fast.converged and sol.converged, sol.status
     assert sol.cost == pytest.approx(fast.cost, rel=1e-5)
     assert sol.max_violation <= 1e-6

@@ -135,6 +135,21 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "2026-12-06)",
     )
     ap.add_argument(
+        "--flip-apart",
+        type=float,
+        default=None,
+        help="ddpkit with SafeCddpSolver(portfolio_flip_apart=...): the flipped starts' gate where the first two "
+        "starts end apart (1.5: the gate of portfolio_flip everywhere, as before 2026-12-06, late night; default: "
+        "the library's)",
+    )
+    ap.add_argument(
+        "--flip-starts",
+        type=int,
+        default=None,
+        help="ddpkit with SafeCddpSolver(portfolio_flip_starts=...): at most this many flipped starts (10: one per "
+        "binding row, as before 2026-12-06, late night; default: the library's)",
+    )
+    ap.add_argument(
         "--no-mirror",
         action="store_true",
         help="ddpkit with SafeCddpSolver(portfolio_mirror=None): no mirrored start (the other side of every "
@@ -168,6 +183,10 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
         options["portfolio_new_side"] = None
     if args.no_flip:
         options["portfolio_flip"] = None
+    if args.flip_apart is not None:
+        options["portfolio_flip_apart"] = args.flip_apart
+    if args.flip_starts is not None:
+        options["portfolio_flip_starts"] = args.flip_starts
     if args.no_mirror:
         options["portfolio_mirror"] = None
     if args.apart is not None:

@@ -819,6 +819,8 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("portfolio_third_mu", s.portfolio_third_mu)?;
     d.set_item("portfolio_apart", s.portfolio_apart)?;
     d.set_item("portfolio_flip", s.portfolio_flip)?;
+    d.set_item("portfolio_flip_apart", s.portfolio_flip_apart)?;
+    d.set_item("portfolio_flip_starts", s.portfolio_flip_starts)?;
     d.set_item("portfolio_mirror", s.portfolio_mirror)?;
     d.set_item(
         "barrier_funnel",
@@ -855,6 +857,8 @@ fn settings_from(
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
     portfolio_flip: Option<f64>,
+    portfolio_flip_apart: f64,
+    portfolio_flip_starts: i64,
     portfolio_mirror: Option<i64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
@@ -894,6 +898,15 @@ fn settings_from(
         .ok()
         .filter(|v| (1..=2).contains(v))
         .ok_or_else(|| invalid("portfolio_threads", format!("must be 1 or 2, got {portfolio_threads}")))?;
+    let portfolio_flip_starts = usize::try_from(portfolio_flip_starts)
+        .ok()
+        .filter(|&v| v >= 1)
+        .ok_or_else(|| {
+            invalid(
+                "portfolio_flip_starts",
+                format!("must be at least 1 (portfolio_flip=None: no flipped starts), got {portfolio_flip_starts}"),
+            )
+        })?;
     let portfolio_mirror = match portfolio_mirror {
         None => None,
         Some(v) => Some(usize::try_from(v).ok().filter(|&v| v >= 1).ok_or_else(|| {
@@ -915,6 +928,8 @@ fn settings_from(
         portfolio_third_mu,
         portfolio_apart,
         portfolio_flip,
+        portfolio_flip_apart,
+        portfolio_flip_starts,
         portfolio_mirror,
         // `None`: no limit.
         barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
@@ -1133,6 +1148,8 @@ impl SafeCddpSolver {
                         portfolio_third_mu = Settings::default().portfolio_third_mu,
                         portfolio_apart = Settings::default().portfolio_apart,
                         portfolio_flip = Settings::default().portfolio_flip,
+                        portfolio_flip_apart = Settings::default().portfolio_flip_apart,
+                        portfolio_flip_starts = Settings::default().portfolio_flip_starts as i64,
                         portfolio_mirror = default_mirror(),
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
@@ -1143,7 +1160,7 @@ impl SafeCddpSolver {
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_mirror=5, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
     )]
     #[allow(clippy::too_many_arguments)]
@@ -1162,6 +1179,8 @@ impl SafeCddpSolver {
         portfolio_third_mu: Option<f64>,
         portfolio_apart: f64,
         portfolio_flip: Option<f64>,
+        portfolio_flip_apart: f64,
+        #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_flip_starts: i64,
         #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
         barrier_funnel: Option<f64>,
         barrier_mu_init: f64,
@@ -1181,6 +1200,8 @@ impl SafeCddpSolver {
             portfolio_third_mu,
             portfolio_apart,
             portfolio_flip,
+            portfolio_flip_apart,
+            portfolio_flip_starts,
             portfolio_mirror,
             barrier_funnel,
             barrier_mu_init,
@@ -1674,6 +1695,8 @@ impl Mpc {
             d.portfolio_third_mu,
             d.portfolio_apart,
             d.portfolio_flip,
+            d.portfolio_flip_apart,
+            d.portfolio_flip_starts as i64,
             default_mirror(),
             Some(d.barrier_funnel),
             d.barrier_mu_init,
@@ -1982,6 +2005,8 @@ where
                     portfolio_third_mu = Settings::default().portfolio_third_mu,
                     portfolio_apart = Settings::default().portfolio_apart,
                         portfolio_flip = Settings::default().portfolio_flip,
+                        portfolio_flip_apart = Settings::default().portfolio_flip_apart,
+                        portfolio_flip_starts = Settings::default().portfolio_flip_starts as i64,
                         portfolio_mirror = default_mirror(),
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
@@ -1991,7 +2016,7 @@ where
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_mirror=5, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -2012,6 +2037,8 @@ fn solve_batch_safe(
     portfolio_third_mu: Option<f64>,
     portfolio_apart: f64,
     portfolio_flip: Option<f64>,
+    portfolio_flip_apart: f64,
+    #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_flip_starts: i64,
     #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
@@ -2030,6 +2057,8 @@ fn solve_batch_safe(
         portfolio_third_mu,
         portfolio_apart,
         portfolio_flip,
+        portfolio_flip_apart,
+        portfolio_flip_starts,
         portfolio_mirror,
         barrier_funnel,
         barrier_mu_init,

@@ -12,7 +12,9 @@
 //! 0: none), `POLISH=0|1` its polish (`Settings::portfolio_polish`), `APART=GAP` when they run
 //! (`Settings::portfolio_apart`), `NEW_SIDE=F` the third start where the first two agree
 //! (`Settings::portfolio_new_side`; 0: none), `FLIP=F`, `FLIP_GUIDE=K` the flipped starts
-//! (`Settings::portfolio_flip`, `portfolio_flip_guide`; 0: none), `THREADS=2` its concurrent starts
+//! (`Settings::portfolio_flip`, `portfolio_flip_guide`; 0: none), `FLIP_STARTS=K` at most `K` of
+//! them (`portfolio_flip_starts`), `FLIP_APART=F` their gate where the first two
+//! starts end apart (`portfolio_flip_apart`), `THREADS=2` its concurrent starts
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
 //! the augmented Lagrangian, `KKT_STEP_MIN` `kkt_step_min`, `MAX_IT` `max_iterations` (`family.py`
@@ -87,6 +89,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = env("MIRROR") {
         // 0: none.
         s.portfolio_mirror = (v > 0.0).then_some(v as usize);
+    }
+    if let Some(v) = env("FLIP_STARTS") {
+        s.portfolio_flip_starts = v as usize;
+    }
+    if let Some(v) = env("FLIP_APART") {
+        s.portfolio_flip_apart = v;
     }
     if let Some(v) = env("FLIP_GUIDE") {
         s.portfolio_flip_guide = v as usize;

@@ -59,6 +59,68 @@ fn a_flipped_start_finds_the_way_between_the_obstacles() {
         &after.starts[..n].iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>(),
         &before.starts.iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>()
     );
+    // With at most one flipped start, only the first of them runs (the same computation), and
+    // here it is the one that finds the optimum.
+    let one = solve(
+        CAR_S1_I21,
+        Settings {
+            portfolio_flip_starts: 1,
+            ..Settings::default()
+        },
+    );
+    let first: Vec<_> = one.starts.iter().filter(|s| s.flip.is_some()).collect();
+    assert_eq!(first.len(), 1, "{}", one.table());
+    assert_eq!(
+        (first[0].flip, first[0].cost.to_bits()),
+        (flips[0].flip, flips[0].cost.to_bits())
+    );
+    assert!(one.cost <= FATROP_COST * (1.0 + 1e-6), "with one: {}", one.cost);
+    check_totals(&one);
+}
+
+/// Problem 22 of the point-robot family, seed 10 (`bench/results/family_s10_210.json`): the
+/// portfolio's first two starts end apart (at 0.263 and 0.183), and the kept solution costs
+/// 1.44x the obstacle-free optimum, below the gate of `portfolio_flip` (1.5) but above that of
+/// `portfolio_flip_apart` (1.25), behind which the flipped and mirrored starts find the peers'
+/// optimum, 10 % lower.
+const POINT_S10_I22: &str = r#"{"name": "point-s10-i22-a0", "model": "point", "dt": 0.0867, "N": 123, "x0": [0.0, 0.0, 0.0, 0.0], "cost": {"kind": "quad_goal", "x_goal": [-0.7765, 4.7354, 0.0, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "u_min": [-0.8757, -1.1403], "u_max": [0.8757, 1.1403], "obstacles": [[-0.1956, 1.1505, 0.3487], [-0.7913, 4.0884, 0.2554], [-0.0657, 2.7005, 0.2276], [-0.2994, 3.9564, 0.2268], [-0.7226, 2.3796, 0.2737]]}"#;
+const POINT_S10_I22_FATROP: f64 = 0.1665558658680249;
+
+#[test]
+fn the_gate_is_lower_where_the_first_two_starts_end_apart() {
+    let high = Settings {
+        portfolio_flip_apart: 1.5,
+        ..Settings::default()
+    };
+    let before = solve(POINT_S10_I22, high);
+    let after = solve(POINT_S10_I22, Settings::default());
+    let (a, b) = (&after.starts[0], &after.starts[1]);
+    assert!(
+        (a.cost - b.cost).abs() > 1e-6 * a.cost.abs().max(b.cost.abs()),
+        "{}",
+        after.table()
+    );
+    assert!(
+        before.starts.iter().all(|s| s.flip.is_none() && !s.mirror),
+        "{}",
+        before.table()
+    );
+    assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
+    assert!(before.cost > 1.05 * POINT_S10_I22_FATROP, "without: {}", before.cost);
+    assert!(
+        after.cost <= POINT_S10_I22_FATROP * (1.0 + 1e-6),
+        "with: {}",
+        after.cost
+    );
+    let kept = kept_start(&after);
+    assert!(kept.flip.is_some() || kept.mirror, "{}", after.table());
+    check_totals(&after);
+    // The starts before are the same computation.
+    let n = before.starts.len();
+    assert_eq!(
+        &after.starts[..n].iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>(),
+        &before.starts.iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>()
+    );
 }
 
 /// The one start whose solution the report holds.
@@ -164,6 +226,19 @@ fn flipped_starts_run_only_above_the_gate() {
         (on.cost.to_bits(), on.iterations, on.discarded_iterations)
     );
     assert!(on.starts.iter().all(|s| s.flip.is_none()));
+    // Its first two starts agree, so the lower gate of starts that end apart (1.25) does not
+    // apply to it.
+    let apart = solve(
+        &p2,
+        Settings {
+            portfolio_flip_apart: 1.0,
+            ..Settings::default()
+        },
+    );
+    assert_eq!(
+        (apart.cost.to_bits(), apart.iterations, apart.discarded_iterations),
+        (on.cost.to_bits(), on.iterations, on.discarded_iterations)
+    );
     let low = solve(
         &p2,
         Settings {
@@ -245,11 +320,25 @@ fn bad_flip_settings_are_rejected_by_name() {
         let e = s.validate().unwrap_err().to_string();
         assert!(e.contains("portfolio_flip") && e.contains(">= 1"), "{e}");
     }
+    for f in [0.5, f64::NAN, f64::INFINITY] {
+        let s = Settings {
+            portfolio_flip_apart: f,
+            ..Settings::default()
+        };
+        let e = s.validate().unwrap_err().to_string();
+        assert!(e.contains("portfolio_flip_apart") && e.contains(">= 1"), "{e}");
+    }
     let s = Settings {
         portfolio_flip_guide: 0,
         ..Settings::default()
     };
     assert!(s.validate().unwrap_err().to_string().contains("portfolio_flip_guide"));
+    let s = Settings {
+        portfolio_flip_starts: 0,
+        ..Settings::default()
+    };
+    let e = s.validate().unwrap_err().to_string();
+    assert!(e.contains("portfolio_flip_starts") && e.contains("at least 1"), "{e}");
 }
 
 #[test]

@@ -763,6 +763,8 @@ def solve_batch_safe(
     portfolio_third_mu: Optional[float] = 0.003,
     portfolio_apart: float = 1e-3,
     portfolio_flip: Optional[float] = 1.5,
+    portfolio_flip_apart: float = 1.25,
+    portfolio_flip_starts: int = 2,
     portfolio_mirror: Optional[int] = 5,
     barrier_funnel: Optional[float] = 0.03,
     barrier_mu_init: float = 0.03,
@@ -1384,8 +1386,10 @@ class SafeCddpSolver:
     its most active state more than 90 degrees from the kept solution's): two starts that agree
     can share a poor optimum (``None``: no third start there).
     Where the kept solution costs more than ``portfolio_flip`` times the optimum without the
-    constraints (from the same guess) and there are two or more state rows (obstacles), one more
-    start per binding state row, steered to its
+    constraints (from the same guess; ``portfolio_flip_apart`` times where the first two starts
+    ended apart, at costs more than 1e-6 apart or either infeasible) and there are two or more
+    state rows (obstacles), one more start per binding state row, for at most
+    ``portfolio_flip_starts`` of them (largest multiplier first), steered to its
     far side (a guide half-space past the row's far boundary along its gradient, for 25
     augmented-Lagrangian iterations from the guess, then lifted) and kept when better: a path
     between two obstacles where every other start went round them (``None``: none, and no
@@ -1426,6 +1430,8 @@ class SafeCddpSolver:
         portfolio_third_mu: Optional[float] = 0.003,
         portfolio_apart: float = 1e-3,
         portfolio_flip: Optional[float] = 1.5,
+        portfolio_flip_apart: float = 1.25,
+        portfolio_flip_starts: int = 2,
         portfolio_mirror: Optional[int] = 5,
         barrier_funnel: Optional[float] = 0.03,
         barrier_mu_init: float = 0.03,

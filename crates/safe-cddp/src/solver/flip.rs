@@ -1,6 +1,9 @@
 //! The portfolio's flipped starts ([`crate::Settings::portfolio_flip`]): where the kept solution
-//! costs well above the obstacle-free optimum, one more start per binding state row, steered to
-//! the row's far side.
+//! costs well above the obstacle-free optimum, one more start per binding state row (at most
+//! [`crate::Settings::portfolio_flip_starts`]), steered to the row's far side. "Well above" is
+//! 1.5x where the portfolio's first two starts agree, 1.25x where they end apart
+//! ([`crate::Settings::portfolio_flip_apart`]): two starts at different optima show a problem
+//! with several within reach.
 //!
 //! The local optima of an obstacle problem differ first by the side of each obstacle the path
 //! takes, and the starts before this one choose the sides on their own way in: the augmented
@@ -233,14 +236,18 @@ const FREE_ITERATIONS: usize = 50;
 /// the peers' optimum by 26 %).
 const BINDING_MARGIN: f64 = 1e-4;
 
+/// Two starts whose costs differ by at most this, relative to the larger, found the same optimum
+/// ([`crate::Settings::portfolio_flip_apart`]): the benchmark family's tolerance for a match.
+const AGREE: f64 = 1e-6;
+
 impl<NX: Dim, NU: Dim> SafeCddpSolver<NX, NU>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    /// Whether the kept solution (this solver's state and report) costs more than
-    /// [`crate::Settings::portfolio_flip`] times the obstacle-free optimum's cost from the
-    /// initial guess (more than that factor minus one of its magnitude above it, for any sign).
-    fn flip_gate(&mut self, problem: &Problem<NX, NU>, factor: f64) -> Result<bool> {
+    /// The optimum's cost of the problem without its constraints, from the initial guess (at
+    /// most [`FREE_ITERATIONS`] iterations), that the gate of [`crate::Settings::portfolio_flip`]
+    /// (or [`crate::Settings::portfolio_flip_apart`]) compares the kept solution's with.
+    fn free_cost(&mut self, problem: &Problem<NX, NU>) -> Result<f64> {
         let n = self.core.n;
         let f = &mut self.portfolio.flips;
         let rebuild = f.free.as_ref().is_none_or(|s| s.horizon() != n);
@@ -254,9 +261,7 @@ where
         }
         let free = f.free.as_deref_mut().expect("built above");
         free.set_controls(&self.portfolio.guess[..n])?;
-        let j0 = free.solve(problem)?.cost;
-        let kept = self.report.cost;
-        Ok(j0.is_finite() && kept > j0 + (factor - 1.0) * j0.abs())
+        Ok(free.solve(problem)?.cost)
     }
 
     /// The binding state rows of the kept solution (a positive multiplier at some knot, or a
@@ -333,17 +338,29 @@ where
         discarded: &mut usize,
         discarded_qps: &mut crate::qp::QpStats,
     ) -> Result<bool> {
-        let Some(factor) = self.settings.portfolio_flip else {
+        let s = self.settings;
+        let Some(factor) = s.portfolio_flip else {
             return Ok(false);
         };
-        let tol = self.settings.constraint_tolerance;
+        let tol = s.constraint_tolerance;
         // The gate's obstacle-free solve covers the problem's whole horizon: a solver set to a
         // shorter one (`set_horizon`) runs no flipped starts. With a single state row (one
         // obstacle) the other starts already go round it both ways: on the family replays of
         // ten seeds, flipped starts on 41 of the 433 one-obstacle problems changed no match.
         let whole = problem.horizon() == self.core.n;
         let state_rows: usize = self.rows.slots.iter().filter(|s| !s.mixed).map(|s| s.dim).sum();
-        if !whole || state_rows < 2 || self.report.max_violation_tightened > tol || !self.flip_gate(problem, factor)? {
+        if !whole || state_rows < 2 || self.report.max_violation_tightened > tol {
+            return Ok(false);
+        }
+        let factor = if self.first_two_agree(tol) {
+            factor
+        } else {
+            s.portfolio_flip_apart
+        };
+        // The kept cost above the obstacle-free optimum's j0 by more than the factor minus one
+        // of |j0| (for either sign of j0).
+        let j0 = self.free_cost(problem)?;
+        if !(j0.is_finite() && self.report.cost > j0 + (factor - 1.0) * j0.abs()) {
             return Ok(false);
         }
         self.measure_sides(true);
@@ -351,7 +368,11 @@ where
         // No target left over from a start that returned early with an error.
         self.portfolio.flips.row.lift();
         let mut kept_any = false;
+        let mut started = 0;
         for i in 0..self.portfolio.flips.binding.len() {
+            if started == s.portfolio_flip_starts {
+                break;
+            }
             let (_, j, r, row) = self.portfolio.flips.binding[i];
             // Every guide is read from the solution kept before the flipped starts (this solver's
             // trajectory: the flipped starts run on the guide solver).
@@ -362,13 +383,32 @@ where
             self.prepare_guide(problem, degree)?;
             let f = &self.portfolio.flips;
             f.row.set(0, t, &f.a, b);
-            let guide_iterations = self.settings.portfolio_flip_guide;
-            kept_any |= self.guided_start(problem, Guided::Flip(j), guide_iterations, discarded, discarded_qps)?;
+            started += 1;
+            kept_any |= self.guided_start(
+                problem,
+                Guided::Flip(j),
+                s.portfolio_flip_guide,
+                discarded,
+                discarded_qps,
+            )?;
         }
-        if let Some(guide_iterations) = self.settings.portfolio_mirror {
+        if let Some(guide_iterations) = s.portfolio_mirror {
             kept_any |= self.mirror_start(problem, guide_iterations, discarded, discarded_qps)?;
         }
         Ok(kept_any)
+    }
+
+    /// Whether the portfolio's first two starts (the augmented Lagrangian's and the barrier's,
+    /// the first two entries of `portfolio.starts`) both ended feasible at costs within
+    /// [`AGREE`] of each other, relative to the larger.
+    fn first_two_agree(&self, tol: f64) -> bool {
+        match &self.portfolio.starts[..] {
+            [a, b, ..] => {
+                let hi = a.cost.abs().max(b.cost.abs());
+                a.max_violation <= tol && b.max_violation <= tol && (a.cost - b.cost).abs() <= AGREE * hi
+            }
+            _ => false,
+        }
     }
 
     /// [`crate::Settings::portfolio_mirror`]: the start round the other side of the whole

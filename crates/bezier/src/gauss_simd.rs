@@ -24,35 +24,13 @@
 //! its squared speeds are subnormal.
 
 use core::arch::x86_64::{__m128d, __m256d, __m512d};
-use std::sync::OnceLock;
-
 use pulp::x86::{V3, V4};
 
 use crate::point::Vec2;
 
-/// The CPU features a sum can use.
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Simd {
-    /// AVX2 and FMA.
-    V3(V3),
-    /// AVX-512 (F, VL, BW, DQ, CD) besides.
-    V4(V4),
-}
-
-/// The widest [`Simd`] the CPU has, read once. The environment variable `DDPKIT_SIMD` narrows it
-/// for comparisons: `off` runs the portable sums, `avx2` stops at AVX2 and FMA.
-#[inline(always)]
-pub(crate) fn available() -> Option<Simd> {
-    static TOKEN: OnceLock<Option<Simd>> = OnceLock::new();
-    *TOKEN.get_or_init(|| {
-        let limit = std::env::var("DDPKIT_SIMD").unwrap_or_default().to_ascii_lowercase();
-        match limit.as_str() {
-            "off" => None,
-            "avx2" => V3::try_new().map(Simd::V3),
-            _ => V4::try_new().map(Simd::V4).or_else(|| V3::try_new().map(Simd::V3)),
-        }
-    })
-}
+/// The CPU features a sum can use, and the widest the CPU has (`DDPKIT_SIMD` narrows it for
+/// comparisons: `off` runs the portable sums, `avx2` stops at AVX2 and FMA).
+pub(crate) use ddpkit_util::simd::{available, Simd};
 
 /// Hodographs whose coefficients sum to less than this take the portable sum (see [`gauss`]).
 const TINY_CURVE: f64 = 1e-140;

@@ -1,11 +1,13 @@
 //! # ddpkit-util
 //!
-//! Helpers every ddpkit crate needs once, with no dependencies beyond `std`:
+//! Helpers every ddpkit crate needs once, with no dependencies beyond `std` (and `pulp` on x86-64,
+//! for the run-time choice of vector instructions):
 //!
 //! | module | what |
 //! |---|---|
 //! | [`check`] | validators of numeric input (`finite`, `positive`, `nonnegative`) returning a [`check::CheckError`] that names the field and the reason; each crate's error type converts from it |
 //! | [`fs`] | [`fs::write_atomic`]: a file written whole or not at all (temporary file, fsync, rename) |
+//! | `simd` | (x86-64) `simd::available()`: AVX-512 or AVX2 + FMA where the CPU has them, as `pulp` tokens (`DDPKIT_SIMD=off` or `avx2` narrows it) |
 //!
 //! ```
 //! use ddpkit_util::check;
@@ -16,3 +18,5 @@
 
 pub mod check;
 pub mod fs;
+#[cfg(target_arch = "x86_64")]
+pub mod simd;

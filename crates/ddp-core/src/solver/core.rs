@@ -1063,8 +1063,9 @@ where
     DefaultAllocator: Alloc<NX, NU>,
 {
     // Compiled for AVX-512, or AVX2 and FMA, where the CPU has them (wider vectors for the small
-    // dense products: 0.94x the time of a family replay): the same operations in the same order,
-    // with no multiply-add fused that the text does not fuse, so the same results bit for bit.
+    // dense products: about 0.97x the time of a family replay): the same operations in the same
+    // order, with no multiply-add fused that the text does not fuse, so the same results bit for
+    // bit.
     #[cfg(target_arch = "x86_64")]
     match ddpkit_util::simd::available() {
         Some(Simd::V4(simd)) => {

@@ -750,8 +750,9 @@ where
         if !live_is_best {
             self.restore_best(problem);
         }
-        // Where the kept solution costs well above the obstacle-free optimum, the other side of
-        // each binding row (`Settings::portfolio_flip`).
+        // Where the kept solution costs well above the obstacle-free optimum (less far where the
+        // first two starts ended apart), the other side of the most costly binding rows
+        // (`Settings::portfolio_flip`, `portfolio_flip_apart`, `portfolio_flip_starts`).
         if self.flip_starts(problem, &mut discarded, &mut discarded_qps)? {
             self.restore_best(problem);
         }

@@ -34,7 +34,7 @@ use ddp_core::dims::{Alloc, DefaultAllocator, Dim, VectorN};
 use ddp_core::{Problem, Result};
 
 use super::rows::Slot;
-use super::{better, SafeCddpSolver};
+use super::{better, ended_apart, SafeCddpSolver};
 use crate::settings::{StartOutcome, StartReport, WarmUp};
 use crate::Constraint;
 
@@ -400,13 +400,17 @@ where
 
     /// Whether the portfolio's first two starts (the augmented Lagrangian's and the barrier's,
     /// the first two entries of `portfolio.starts`) both ended feasible at costs within
-    /// [`AGREE`] of each other, relative to the larger.
+    /// [`AGREE`] of each other, relative to the larger (the third start's test, `ended_apart`,
+    /// with this gap and no factor for a failed start).
     fn first_two_agree(&self, tol: f64) -> bool {
         match &self.portfolio.starts[..] {
-            [a, b, ..] => {
-                let hi = a.cost.abs().max(b.cost.abs());
-                a.max_violation <= tol && b.max_violation <= tol && (a.cost - b.cost).abs() <= AGREE * hi
-            }
+            [a, b, ..] => !ended_apart(
+                (a.cost, a.max_violation),
+                (b.cost, b.max_violation),
+                tol,
+                AGREE,
+                f64::INFINITY,
+            ),
             _ => false,
         }
     }

@@ -791,12 +791,14 @@ where
     fn starts_apart(&self, tol: f64) -> bool {
         let (a, b) = (&self.portfolio.report, &self.report);
         let gap = self.settings.portfolio_apart;
-        if gap == 0.0 || a.max_violation_tightened > tol || b.max_violation_tightened > tol {
-            return true;
-        }
-        let (lo, hi) = (a.cost.abs().min(b.cost.abs()), a.cost.abs().max(b.cost.abs()));
-        // Written so that a NaN cost counts as apart.
-        !((a.cost - b.cost).abs() <= gap * hi || hi > FAILED_START * lo)
+        gap == 0.0
+            || ended_apart(
+                (a.cost, a.max_violation_tightened),
+                (b.cost, b.max_violation_tightened),
+                tol,
+                gap,
+                FAILED_START,
+            )
     }
 
     /// Builds the sibling solver of [`Settings::portfolio_threads`] when there is none or when it
@@ -1575,6 +1577,19 @@ impl Stall {
         }
         self.run
     }
+}
+
+/// Whether two starts that ended at `(cost, violation)` `a` and `b` ended apart: either
+/// infeasible (violation above `tol`), or feasible at costs more than `gap` apart (relative to
+/// the larger) but within a factor of `failed` of each other (`f64::INFINITY`: any factor). A
+/// NaN cost counts as apart.
+pub(super) fn ended_apart(a: (f64, f64), b: (f64, f64), tol: f64, gap: f64, failed: f64) -> bool {
+    if a.1 > tol || b.1 > tol {
+        return true;
+    }
+    let (lo, hi) = (a.0.abs().min(b.0.abs()), a.0.abs().max(b.0.abs()));
+    // `failed * lo` is NaN for an infinite factor and a zero cost: the comparison is then false.
+    !((a.0 - b.0).abs() <= gap * hi || hi > failed * lo)
 }
 
 /// Whether solve `a` is better than solve `b`: feasible (within `tol`) before infeasible, then

@@ -5,7 +5,9 @@
 //! DDP, in contracted form: the solver needs `sum_i lambda_i * d^2 f_i / d(x,u)^2` with
 //! `lambda = V_x'` (the next knot's value gradient), never the full third-order tensor. A model
 //! whose second derivatives share work with its Jacobians (a traced tape's forward sweep) can keep
-//! that work per knot ([`Dynamics::jacobians_keep`], [`Dynamics::add_second_order_kept`]).
+//! that work per knot ([`Dynamics::jacobians_keep`], [`Dynamics::add_second_order_kept`]); one
+//! whose Jacobians share work with its step (the sine and cosine of a heading) can keep that per
+//! knot of the rollout ([`Dynamics::step_keep`], [`Dynamics::jacobians_kept`]).
 
 use crate::dims::{Alloc, DefaultAllocator, Dim, MatrixN, VectorN};
 
@@ -37,6 +39,29 @@ where
     /// it to avoid allocating the result.
     fn step_into(&self, x: &VectorN<NX>, u: &VectorN<NU>, out: &mut VectorN<NX>) {
         *out = self.step(x, u);
+    }
+
+    /// [`Dynamics::step_into`] where the solver will ask for [`Dynamics::jacobians_kept`] at the
+    /// same point if the step is accepted: a model may keep in `data` what it computed and the
+    /// Jacobians reuse (the sine and cosine of a heading). `data` is the knot's, owned by the
+    /// solver's trajectory and passed back unchanged; it starts empty and a model grows it once.
+    /// The default keeps nothing.
+    fn step_keep(&self, x: &VectorN<NX>, u: &VectorN<NU>, out: &mut VectorN<NX>, _data: &mut Vec<f64>) {
+        self.step_into(x, u, out);
+    }
+
+    /// [`Dynamics::jacobians`] with the `data` [`Dynamics::step_keep`] left for this knot. The
+    /// trajectory may have moved since (a warm start, a shift, another rollout), so `data` may
+    /// be empty or belong to another point: a model must check (the default ignores it).
+    fn jacobians_kept(
+        &self,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        fx: &mut MatrixN<NX, NX>,
+        fu: &mut MatrixN<NX, NU>,
+        _data: &[f64],
+    ) {
+        self.jacobians(x, u, fx, fu);
     }
 
     /// The state and control sizes this model was built for; `None` where it takes any size.
@@ -109,6 +134,19 @@ where
     }
     fn step_into(&self, x: &VectorN<NX>, u: &VectorN<NU>, out: &mut VectorN<NX>) {
         (**self).step_into(x, u, out)
+    }
+    fn step_keep(&self, x: &VectorN<NX>, u: &VectorN<NU>, out: &mut VectorN<NX>, data: &mut Vec<f64>) {
+        (**self).step_keep(x, u, out, data)
+    }
+    fn jacobians_kept(
+        &self,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        fx: &mut MatrixN<NX, NX>,
+        fu: &mut MatrixN<NX, NU>,
+        data: &[f64],
+    ) {
+        (**self).jacobians_kept(x, u, fx, fu, data)
     }
     fn sizes(&self) -> (Option<usize>, Option<usize>) {
         (**self).sizes()

@@ -181,8 +181,24 @@ impl<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>> Dynami
     fn step(&self, x: &Vector<NX>, u: &Vector<NU>) -> Vector<NX> {
         (**self).step(x, u)
     }
+    fn step_into(&self, x: &Vector<NX>, u: &Vector<NU>, out: &mut Vector<NX>) {
+        (**self).step_into(x, u, out)
+    }
+    fn step_keep(&self, x: &Vector<NX>, u: &Vector<NU>, out: &mut Vector<NX>, data: &mut Vec<f64>) {
+        (**self).step_keep(x, u, out, data)
+    }
     fn jacobians(&self, x: &Vector<NX>, u: &Vector<NU>, fx: &mut Matrix<NX, NX>, fu: &mut Matrix<NX, NU>) {
         (**self).jacobians(x, u, fx, fu)
+    }
+    fn jacobians_kept(
+        &self,
+        x: &Vector<NX>,
+        u: &Vector<NU>,
+        fx: &mut Matrix<NX, NX>,
+        fu: &mut Matrix<NX, NU>,
+        data: &[f64],
+    ) {
+        (**self).jacobians_kept(x, u, fx, fu, data)
     }
     fn has_second_order(&self) -> bool {
         (**self).has_second_order()

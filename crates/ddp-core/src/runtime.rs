@@ -68,12 +68,31 @@ impl<const NX: usize, const NU: usize, M: Dynamics<Const<NX>, Const<NU>>> Dynami
         out.as_mut_slice()
             .copy_from_slice(self.0.step(&fixed::<NX>(x), &fixed::<NU>(u)).as_slice());
     }
+    fn step_keep(&self, x: &VectorN<Dyn>, u: &VectorN<Dyn>, out: &mut VectorN<Dyn>, data: &mut Vec<f64>) {
+        let mut y = Vector::<NX>::zeros();
+        self.0.step_keep(&fixed::<NX>(x), &fixed::<NU>(u), &mut y, data);
+        out.as_mut_slice().copy_from_slice(y.as_slice());
+    }
     fn sizes(&self) -> (Option<usize>, Option<usize>) {
         (Some(NX), Some(NU))
     }
     fn jacobians(&self, x: &VectorN<Dyn>, u: &VectorN<Dyn>, fx: &mut MatrixN<Dyn, Dyn>, fu: &mut MatrixN<Dyn, Dyn>) {
         let (mut a, mut b) = (Matrix::<NX, NX>::zeros(), Matrix::<NX, NU>::zeros());
         self.0.jacobians(&fixed::<NX>(x), &fixed::<NU>(u), &mut a, &mut b);
+        copy_back(fx, &a);
+        copy_back(fu, &b);
+    }
+    fn jacobians_kept(
+        &self,
+        x: &VectorN<Dyn>,
+        u: &VectorN<Dyn>,
+        fx: &mut MatrixN<Dyn, Dyn>,
+        fu: &mut MatrixN<Dyn, Dyn>,
+        data: &[f64],
+    ) {
+        let (mut a, mut b) = (Matrix::<NX, NX>::zeros(), Matrix::<NX, NU>::zeros());
+        self.0
+            .jacobians_kept(&fixed::<NX>(x), &fixed::<NU>(u), &mut a, &mut b, data);
         copy_back(fx, &a);
         copy_back(fu, &b);
     }

@@ -196,19 +196,58 @@ fn analytic_derivatives_equal_autodiff_of_generic_step() {
     check_autodiff("ArmBase offset", ArmBase::from_params(offset).unwrap(), 17);
 }
 
-/// The kept path ([`Dynamics::jacobians_keep`], [`Dynamics::add_second_order_kept`]) gives the
-/// plain path's Jacobians and second-order terms bit for bit: with the knot's own data, with
-/// data kept at another point, and with none.
+/// The kept paths give the plain path's steps, Jacobians and second-order terms bit for bit:
+/// the rollout's ([`Dynamics::step_keep`], [`Dynamics::jacobians_kept`]) and full DDP's
+/// ([`Dynamics::jacobians_keep`], [`Dynamics::add_second_order_kept`]), each with the knot's own
+/// data, with data kept at another point, and with none. The first two samples are the states
+/// of entries `0.0` and `-0.0` (equal, but not to `sin`).
 fn check_kept<const NX: usize, const NU: usize, D: Dynamics<Const<NX>, Const<NU>>>(name: &str, model: &D, seed: u64) {
     let mut rng = Rng(seed);
     let mut data = Vec::new();
+    let mut step_data = Vec::new();
     let other = rng.vector::<NX>(-1.0, 1.0);
     for sample in 0..SAMPLES {
-        let x = rng.vector::<NX>(-3.0, 3.0);
+        let x = match sample {
+            0 => Vector::<NX>::zeros(),
+            1 => Vector::<NX>::repeat(-0.0),
+            _ => rng.vector::<NX>(-3.0, 3.0),
+        };
         let u = rng.vector::<NU>(-1.0, 1.0);
-        let lambda = rng.vector::<NX>(-100.0, 100.0);
         let (mut fx, mut fu) = (Matrix::<NX, NX>::zeros(), Matrix::<NX, NU>::zeros());
         model.jacobians(&x, &u, &mut fx, &mut fu);
+        // The rollout's path: the Jacobians from stale data (the previous sample's) and from
+        // none, then the step and the Jacobians from its data.
+        let bits = |a: &[f64], b: &[f64]| a.iter().chain(b).map(|v| v.to_bits()).collect::<Vec<_>>();
+        let plain_bits = bits(fx.as_slice(), fu.as_slice());
+        let jacobians_kept = |data: &[f64]| {
+            let (mut gx, mut gu) = (Matrix::<NX, NX>::repeat(f64::NAN), Matrix::<NX, NU>::repeat(f64::NAN));
+            model.jacobians_kept(&x, &u, &mut gx, &mut gu, data);
+            bits(gx.as_slice(), gu.as_slice())
+        };
+        assert_eq!(
+            jacobians_kept(&step_data),
+            plain_bits,
+            "{name} sample {sample}: Jacobians, stale data"
+        );
+        assert_eq!(
+            jacobians_kept(&[]),
+            plain_bits,
+            "{name} sample {sample}: Jacobians, no data"
+        );
+        let mut next = Vector::<NX>::repeat(f64::NAN);
+        model.step_keep(&x, &u, &mut next, &mut step_data);
+        let step = model.step(&x, &u);
+        assert_eq!(
+            bits(next.as_slice(), &[]),
+            bits(step.as_slice(), &[]),
+            "{name} sample {sample}: kept step"
+        );
+        assert_eq!(
+            jacobians_kept(&step_data),
+            plain_bits,
+            "{name} sample {sample}: Jacobians, own data"
+        );
+        let lambda = rng.vector::<NX>(-100.0, 100.0);
         let plain = second_order(model, &x, &u, &lambda);
         let kept_at = |at: &Vector<NX>, data: &mut Vec<f64>| {
             let (mut gx, mut gu) = (Matrix::<NX, NX>::repeat(f64::NAN), Matrix::<NX, NU>::repeat(f64::NAN));

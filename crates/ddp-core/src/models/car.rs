@@ -31,6 +31,18 @@ impl Car {
         self.dt
     }
 
+    /// The step with `(sin, cos)` of the heading given.
+    #[inline]
+    fn step_at(&self, (s, c): (f64, f64), x: &Vector<4>, u: &Vector<2>) -> Vector<4> {
+        let dt = self.dt;
+        Vector::<4>::new(
+            x[0] + c * x[3] * dt,
+            x[1] + s * x[3] * dt,
+            x[2] + u[0] * dt,
+            x[3] + u[1] * dt,
+        )
+    }
+
     /// The Jacobians with `(sin, cos)` of the heading given.
     #[inline]
     fn jacobians_at(&self, (s, c): (f64, f64), x: &Vector<4>, fx: &mut Matrix<4, 4>, fu: &mut Matrix<4, 2>) {
@@ -67,19 +79,29 @@ impl Default for Car {
 impl Dynamics<U4, U2> for Car {
     #[inline]
     fn step(&self, x: &Vector<4>, u: &Vector<2>) -> Vector<4> {
-        let (s, c) = x[2].sin_cos();
-        let dt = self.dt;
-        Vector::<4>::new(
-            x[0] + c * x[3] * dt,
-            x[1] + s * x[3] * dt,
-            x[2] + u[0] * dt,
-            x[3] + u[1] * dt,
-        )
+        self.step_at(x[2].sin_cos(), x, u)
+    }
+
+    #[inline]
+    fn step_keep(&self, x: &Vector<4>, u: &Vector<2>, out: &mut Vector<4>, data: &mut Vec<f64>) {
+        *out = self.step_at(super::keep_sin_cos(x[2], data), x, u);
     }
 
     #[inline]
     fn jacobians(&self, x: &Vector<4>, _u: &Vector<2>, fx: &mut Matrix<4, 4>, fu: &mut Matrix<4, 2>) {
         self.jacobians_at(x[2].sin_cos(), x, fx, fu);
+    }
+
+    #[inline]
+    fn jacobians_kept(
+        &self,
+        x: &Vector<4>,
+        _u: &Vector<2>,
+        fx: &mut Matrix<4, 4>,
+        fu: &mut Matrix<4, 2>,
+        data: &[f64],
+    ) {
+        self.jacobians_at(super::kept_sin_cos(x[2], data), x, fx, fu);
     }
 
     fn jacobians_keep(

@@ -58,22 +58,28 @@ fn set_zero<const R: usize, const C: usize>(m: &mut Matrix<R, C>) {
     m.as_mut_slice().fill(0.0);
 }
 
-/// `theta.sin_cos()`, kept in a knot's `data` ([`crate::Dynamics::jacobians_keep`]) as
-/// `[theta, sin, cos]` for the second-order terms of the same knot.
+/// `theta.sin_cos()`, kept in a knot's `data` as `[theta, sin, cos]`: by the rollout's step for
+/// the Jacobians ([`crate::Dynamics::step_keep`]), by the Jacobians for the second-order terms
+/// ([`crate::Dynamics::jacobians_keep`]) of the same knot.
 #[inline]
 fn keep_sin_cos(theta: f64, data: &mut Vec<f64>) -> (f64, f64) {
     let (s, c) = theta.sin_cos();
-    data.clear();
-    data.extend_from_slice(&[theta, s, c]);
+    // Grown once; after that three stores, as cheap as the rollout's step itself.
+    if let [t, ks, kc] = &mut data[..] {
+        (*t, *ks, *kc) = (theta, s, c);
+    } else {
+        data.clear();
+        data.extend_from_slice(&[theta, s, c]);
+    }
     (s, c)
 }
 
-/// The `sin_cos` [`keep_sin_cos`] kept, when it was kept at this `theta` (the data may belong
-/// to another point); else computed.
+/// The `sin_cos` [`keep_sin_cos`] kept, when it was kept at this `theta`, bit for bit (the data
+/// may belong to another point; `-0.0` is not `0.0` to `sin`); else computed.
 #[inline]
 fn kept_sin_cos(theta: f64, data: &[f64]) -> (f64, f64) {
     match data {
-        [t, s, c] if *t == theta => (*s, *c),
+        [t, s, c] if t.to_bits() == theta.to_bits() => (*s, *c),
         _ => theta.sin_cos(),
     }
 }

@@ -34,6 +34,13 @@ impl Unicycle {
         self.dt
     }
 
+    /// The step with `(sin, cos)` of the heading given.
+    #[inline]
+    fn step_at(&self, (s, c): (f64, f64), x: &Vector<3>, u: &Vector<2>) -> Vector<3> {
+        let dt = self.dt;
+        Vector::<3>::new(x[0] + c * u[0] * dt, x[1] + s * u[0] * dt, x[2] + u[1] * dt)
+    }
+
     /// The Jacobians with `(sin, cos)` of the heading given.
     #[inline]
     fn jacobians_at(&self, (s, c): (f64, f64), u: &Vector<2>, fx: &mut Matrix<3, 3>, fu: &mut Matrix<3, 2>) {
@@ -74,14 +81,22 @@ impl Default for Unicycle {
 impl Dynamics<U3, U2> for Unicycle {
     #[inline]
     fn step(&self, x: &Vector<3>, u: &Vector<2>) -> Vector<3> {
-        let (s, c) = x[2].sin_cos();
-        let dt = self.dt;
-        Vector::<3>::new(x[0] + c * u[0] * dt, x[1] + s * u[0] * dt, x[2] + u[1] * dt)
+        self.step_at(x[2].sin_cos(), x, u)
+    }
+
+    #[inline]
+    fn step_keep(&self, x: &Vector<3>, u: &Vector<2>, out: &mut Vector<3>, data: &mut Vec<f64>) {
+        *out = self.step_at(super::keep_sin_cos(x[2], data), x, u);
     }
 
     #[inline]
     fn jacobians(&self, x: &Vector<3>, u: &Vector<2>, fx: &mut Matrix<3, 3>, fu: &mut Matrix<3, 2>) {
         self.jacobians_at(x[2].sin_cos(), u, fx, fu);
+    }
+
+    #[inline]
+    fn jacobians_kept(&self, x: &Vector<3>, u: &Vector<2>, fx: &mut Matrix<3, 3>, fu: &mut Matrix<3, 2>, data: &[f64]) {
+        self.jacobians_at(super::kept_sin_cos(x[2], data), u, fx, fu);
     }
 
     fn jacobians_keep(

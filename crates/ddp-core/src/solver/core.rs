@@ -51,6 +51,12 @@ where
     pub xs_try: Vec<VectorN<NX>>,
     /// Trial controls.
     pub us_try: Vec<VectorN<NU>>,
+    /// Each knot's dynamics data from the rollout ([`crate::Dynamics::step_keep`]), for the
+    /// Jacobians at the same point ([`crate::Dynamics::jacobians_kept`]); empty until a model
+    /// keeps some, and possibly of another point (the model checks).
+    pub data: Vec<Vec<f64>>,
+    /// The trial's.
+    pub data_try: Vec<Vec<f64>>,
 }
 
 impl<NX: Dim, NU: Dim> Trajectory<NX, NU>
@@ -64,12 +70,15 @@ where
             us: vec![dims.u_zeros(); n],
             xs_try: vec![dims.x_zeros(); n + 1],
             us_try: vec![dims.u_zeros(); n],
+            data: vec![Vec::new(); n],
+            data_try: vec![Vec::new(); n],
         }
     }
     /// Makes the trial the nominal trajectory (a swap, no copy).
     pub fn accept_trial(&mut self) {
         std::mem::swap(&mut self.xs, &mut self.xs_try);
         std::mem::swap(&mut self.us, &mut self.us_try);
+        std::mem::swap(&mut self.data, &mut self.data_try);
     }
 }
 
@@ -112,9 +121,17 @@ where
     }
 
     /// Derivatives of the first `n` knots' dynamics and costs and of the terminal cost along
-    /// `(xs, us)`.
+    /// `(xs, us)`, with the dynamics' data of their rollout (`kept`, [`Trajectory::data`]; empty
+    /// for none).
     #[inline(never)]
-    pub fn compute(&mut self, problem: &Problem<NX, NU>, xs: &[VectorN<NX>], us: &[VectorN<NU>], n: usize) {
+    pub fn compute(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        xs: &[VectorN<NX>],
+        us: &[VectorN<NU>],
+        kept: &[Vec<f64>],
+        n: usize,
+    ) {
         let data = if self.keep_second_order {
             &mut self.data[..n]
         } else {
@@ -124,6 +141,7 @@ where
             &problem.knots()[..n],
             &xs[..n],
             &us[..n],
+            kept,
             &mut self.fx[..n],
             &mut self.fu[..n],
             &mut self.l[..n],
@@ -143,6 +161,7 @@ where
         problem: &Problem<NX, NU>,
         xs: &[VectorN<NX>],
         us: &[VectorN<NU>],
+        kept: &[Vec<f64>],
         n: usize,
     ) {
         #[cfg(feature = "parallel")]
@@ -162,7 +181,8 @@ where
                            data: &mut [Vec<f64>]| {
                     let r = c * chunk..c * chunk + fx.len();
                     let data = if keep { data } else { &mut [] };
-                    knots_derivatives(&knots[r.clone()], &xs[r.clone()], &us[r], fx, fu, l, data);
+                    let kept = kept.get(r.clone()).unwrap_or(&[]);
+                    knots_derivatives(&knots[r.clone()], &xs[r.clone()], &us[r], kept, fx, fu, l, data);
                 };
                 pool.in_place_scope(|scope| {
                     let mut parts = fx
@@ -184,7 +204,7 @@ where
             }
         }
         let _ = threads;
-        self.compute(problem, xs, us, n);
+        self.compute(problem, xs, us, kept, n);
     }
 
     /// Only the running and terminal cost derivatives (the dynamics' are kept).
@@ -205,12 +225,15 @@ where
 
 /// The dynamics Jacobians and running-cost derivatives of `knots` at `(xs, us)` (equal lengths),
 /// into `fx`, `fu`, `l`, keeping the dynamics' second-order data in `data` where it is not
-/// empty (full DDP): the one text of the derivative phase, sequential or per thread chunk.
+/// empty (full DDP), else reading their rollout's `kept` data (where it is not empty): the one
+/// text of the derivative phase, sequential or per thread chunk.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn knots_derivatives<NX: Dim, NU: Dim>(
     knots: &[crate::Knot<NX, NU>],
     xs: &[VectorN<NX>],
     us: &[VectorN<NU>],
+    kept: &[Vec<f64>],
     fx: &mut [MatrixN<NX, NX>],
     fu: &mut [MatrixN<NX, NU>],
     l: &mut [CostDerivatives<NX, NU>],
@@ -222,7 +245,10 @@ fn knots_derivatives<NX: Dim, NU: Dim>(
         let (x, u) = (&xs[k], &us[k]);
         match data.get_mut(k) {
             Some(d) => knot.dynamics.jacobians_keep(x, u, &mut fx[k], &mut fu[k], d),
-            None => knot.dynamics.jacobians(x, u, &mut fx[k], &mut fu[k]),
+            None => match kept.get(k) {
+                Some(kept) => knot.dynamics.jacobians_kept(x, u, &mut fx[k], &mut fu[k], kept),
+                None => knot.dynamics.jacobians(x, u, &mut fx[k], &mut fu[k]),
+            },
         }
         let l = &mut l[k];
         l.clear();
@@ -852,13 +878,13 @@ where
     #[inline(never)]
     pub fn rollout(&mut self, problem: &Problem<NX, NU>) -> f64 {
         let n = self.n;
-        let (xs, us) = (&mut self.traj.xs, &self.traj.us);
+        let (xs, us, data) = (&mut self.traj.xs, &self.traj.us, &mut self.traj.data);
         let mut cost = 0.0;
         xs[0].copy_from(problem.x0());
         for (k, knot) in problem.knots()[..n].iter().enumerate() {
             let (head, tail) = xs.split_at_mut(k + 1);
             cost += knot.cost.value(&head[k], &us[k]);
-            knot.dynamics.step_into(&head[k], &us[k], &mut tail[0]);
+            knot.dynamics.step_keep(&head[k], &us[k], &mut tail[0], &mut data[k]);
         }
         self.cost = cost + problem.terminal().value(&xs[n]);
         self.cost
@@ -894,7 +920,7 @@ where
                 b.clamp_mut(u);
             }
             cost += knot.cost.value(x, u);
-            knot.dynamics.step_into(x, u, &mut tail[0]);
+            knot.dynamics.step_keep(x, u, &mut tail[0], &mut t.data_try[k]);
         }
         cost + problem.terminal().value(&t.xs_try[n])
     }
@@ -903,8 +929,14 @@ where
     /// the dynamics' data for the second-order terms where `method` is full DDP.
     pub fn linearize(&mut self, problem: &Problem<NX, NU>, method: Method) {
         self.lin.keep_second_order = method == Method::Ddp;
-        self.lin
-            .compute_with(&self.derivative_threads, problem, &self.traj.xs, &self.traj.us, self.n);
+        self.lin.compute_with(
+            &self.derivative_threads,
+            problem,
+            &self.traj.xs,
+            &self.traj.us,
+            &self.traj.data,
+            self.n,
+        );
     }
 
     /// Computes the derivatives on `threads` threads from now on (1: the calling thread); keeps
@@ -977,6 +1009,7 @@ where
             self.traj.us[n - 1] = self.traj.us[n - 2].clone();
             self.traj.xs[..=n].rotate_left(1);
             self.traj.xs[n] = self.traj.xs[n - 1].clone();
+            self.traj.data[..n].rotate_left(1);
             self.policy.k_ff[..n].rotate_left(1);
             self.policy.k_ff[n - 1] = self.policy.k_ff[n - 2].clone();
             self.policy.k_fb[..n].rotate_left(1);

@@ -231,7 +231,7 @@ where
             let x = &t.xs_try[k];
             cost += knot.cost.value(x, ut);
             let g = &mut ms.gaps_try[k];
-            knot.dynamics.step_into(x, ut, g);
+            knot.dynamics.step_keep(x, ut, g, &mut t.data_try[k]);
             *g -= &t.xs_try[k + 1];
             theta += g.iter().map(|v| v.abs()).sum::<f64>();
         }

@@ -157,7 +157,7 @@ where
                 b.clamp_mut(u);
             }
             cost += knot.cost.value(x, u);
-            knot.dynamics.step_into(x, u, &mut tail[0]);
+            knot.dynamics.step_keep(x, u, &mut tail[0], &mut t.data_try[k]);
         }
         cost += problem.terminal().value(&t.xs_try[n]);
         Forward::Done { cost }

@@ -1141,6 +1141,7 @@ where
             first_row,
             keep_positive: !self.warm.active && self.warm.handed_over,
             hessian: s.constraint_hessian && !self.warm.active,
+            forward_qp: !self.warm.active,
         };
         self.core.backward(problem, &mut gains, opts)
     }

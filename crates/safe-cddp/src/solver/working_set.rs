@@ -103,6 +103,9 @@ where
     pub keep_positive: bool,
     /// Add the constraint curvature `h_con` to `Q_xx`.
     pub hessian: bool,
+    /// Keep each knot's `Q_u`, `Q_ux`, `Q_uu` for the per-step QPs of the forward pass (not in
+    /// the warm-up, whose forward pass rolls out the gains).
+    pub forward_qp: bool,
 }
 
 impl<NX: Dim, NU: Dim> Gains<NX, NU> for KktGains<'_, NX, NU>
@@ -149,9 +152,11 @@ where
             w.hci.gemv_tr(1.0, &w.cw, &w.lambda, 1.0);
         }
         let gradient = w.hci.norm_squared();
-        copy(&mut w.q_u[k], &q.q_u);
-        copy(&mut w.q_ux[k], &q.q_ux);
-        copy(&mut w.q_uu_r[k], &q.q_uu_r);
+        if self.forward_qp {
+            copy(&mut w.q_u[k], &q.q_u);
+            copy(&mut w.q_ux[k], &q.q_ux);
+            copy(&mut w.q_uu_r[k], &q.q_uu_r);
+        }
         Ok(GainsInfo { gradient, exact: false })
     }
 }
@@ -186,12 +191,13 @@ where
         let (w, rows) = (&mut *self.kkt, &*self.rows);
         let nu = w.rows_w.len();
         let base = k * rows.m;
+        if w.cand.is_empty() {
+            // (Most knots: `kkt_solution` reads none of the blocks below.)
+            return 0;
+        }
         w.cw.fill(0.0);
         w.dw.fill(0.0);
         w.hw.fill(0.0);
-        if w.cand.is_empty() {
-            return 0;
-        }
         let q_scale = q.q_uu_r.amax().recip();
         let mut mw = 0;
         for c in 0..w.cand.len() {

@@ -357,10 +357,19 @@ mod parallel_derivatives {
             .collect();
         let mut xs = vec![dims.x_zeros(); n + 1];
         problem.rollout(&us, &mut xs).unwrap();
+        // The data a rollout's steps keep for the Jacobians (the unicycle's sin_cos).
+        let mut kept = vec![Vec::new(); n];
+        for (k, knot) in problem.knots().iter().enumerate() {
+            let mut next = xs[k + 1].clone();
+            knot.dynamics.step_keep(&xs[k], &us[k], &mut next, &mut kept[k]);
+        }
         let mut seq = Linearization::new(dims, n);
-        seq.compute(problem, &xs, &us, n);
+        seq.compute(problem, &xs, &us, &[], n);
+        let mut seq_kept = Linearization::new(dims, n);
+        seq_kept.compute(problem, &xs, &us, &kept, n);
+        assert_eq!(seq_kept.fx, seq.fx, "fx from the kept data");
         let mut par = Linearization::new(dims, n);
-        par.compute_with(&DerivativeThreads::new(threads).unwrap(), problem, &xs, &us, n);
+        par.compute_with(&DerivativeThreads::new(threads).unwrap(), problem, &xs, &us, &kept, n);
         assert_eq!(par.fx, seq.fx, "fx, {threads} threads");
         assert_eq!(par.fu, seq.fu, "fu, {threads} threads");
         assert_eq!(par.l, seq.l, "running-cost derivatives, {threads} threads");

@@ -195,7 +195,7 @@ pub struct Settings {
     /// default): one thread.
     pub portfolio_threads: usize,
     /// [`WarmUp::Portfolio`]: where the kept solution (feasible) costs more than this factor
-    /// times the optimum of the problem without its constraints (from the same initial guess;
+    /// times the optimum of the problem without its constraints (solved from the kept solution;
     /// above it by more than the factor minus one of that cost's magnitude), one more start per
     /// binding state row of the kept solution (a positive multiplier or a zero value somewhere),
     /// steered to the row's far side: an augmented-Lagrangian start from the initial guess with

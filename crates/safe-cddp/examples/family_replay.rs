@@ -22,7 +22,9 @@
 //! `al_inner_progress`, `al_inner_progress_below`, `NEAR_MARGIN`, `NEAR_RHO` `al_near_margin`,
 //! `al_near_rho`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
 //! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES` print
-//! per-solve details. `REPEATS=R` times the fastest of `R` solves of each problem; `AB=1` also
+//! per-solve details. `REPEATS=R` times the fastest of `R` solves of each problem, each a cold
+//! solve (`SafeCddpSolver::reset`) on the same solver, as `family.py` re-solves through the Python
+//! wrapper (a first solve on a new solver also pays for its workspace's first use); `AB=1` also
 //! solves each problem with the defaults (and the command line's warm-up), interleaved with the
 //! settings above, and prints `AB` lines with both outcomes and the time ratio (`bench/peers/README.md`).
 use std::time::Instant;
@@ -198,15 +200,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             });
             let mut base_ms = f64::INFINITY;
             let mut base_out = None;
-            let (cost, viol, iters, status, mut ms) = solve_one(&bp, v)?;
+            let mut base_run = base.map(|b| runner(&bp, b)).transpose()?;
+            let mut run = runner(&bp, v)?;
+            let (cost, viol, iters, status, mut ms) = run()?;
             for r in 0..repeats {
-                if let Some(b) = base {
-                    let o = solve_one(&bp, b)?;
+                if let Some(b) = base_run.as_mut() {
+                    let o = b()?;
                     base_ms = base_ms.min(o.4);
                     base_out = Some(o);
                 }
                 if r > 0 {
-                    ms = ms.min(solve_one(&bp, v)?.4);
+                    ms = ms.min(run()?.4);
                 }
             }
             if let Some(o) = base_out {
@@ -258,45 +262,53 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
 type Outcome = (f64, f64, usize, safe_cddp::Status, f64);
 
-fn solve_one(bp: &BenchmarkProblem, s: Settings) -> Result<Outcome, Box<dyn std::error::Error>> {
+/// A solver of `bp` with settings `s`: each call a cold solve (`SafeCddpSolver::reset`) on the
+/// same solver, timed.
+fn runner(
+    bp: &BenchmarkProblem,
+    s: Settings,
+) -> Result<Box<dyn FnMut() -> Result<Outcome, Box<dyn std::error::Error>>>, Box<dyn std::error::Error>> {
     let table = std::env::var("TABLE").is_ok();
     macro_rules! run {
         ($pc:expr) => {{
             let (problem, constraints) = $pc;
             let mut solver = SafeCddpSolver::new(&problem, constraints, s)?;
-            let t = Instant::now();
-            let r = solver.solve(&problem)?;
-            let ms = t.elapsed().as_secs_f64() * 1e3;
-            if table {
-                println!("{}", r.table());
-            }
-            if std::env::var("PASSES").is_ok() {
-                println!(
-                    "  passes: it {} fp {} bp {}",
-                    r.iterations, r.forward_passes, r.backward_passes
-                );
-            }
-            if std::env::var("QPS").is_ok() {
-                println!("  qp: {:?}", r.qp);
-            }
-            if std::env::var("PHASES").is_ok() {
-                let count = |w: Option<WarmUp>| r.log.iter().filter(|l| l.warm_up == w).count();
-                let last = r.log.iter().rev().find(|l| l.accepted).map(|l| l.warm_up);
-                println!(
-                    "  phases: barrier {} al {} kkt {} last {:?}",
-                    count(Some(WarmUp::Barrier)),
-                    count(Some(WarmUp::AugmentedLagrangian)),
-                    count(None),
-                    last
-                );
-            }
-            (
-                r.cost,
-                r.max_violation,
-                r.iterations + r.discarded_iterations,
-                r.status,
-                ms,
-            )
+            Box::new(move || {
+                solver.reset();
+                let t = Instant::now();
+                let r = solver.solve(&problem)?;
+                let ms = t.elapsed().as_secs_f64() * 1e3;
+                if table {
+                    println!("{}", r.table());
+                }
+                if std::env::var("PASSES").is_ok() {
+                    println!(
+                        "  passes: it {} fp {} bp {}",
+                        r.iterations, r.forward_passes, r.backward_passes
+                    );
+                }
+                if std::env::var("QPS").is_ok() {
+                    println!("  qp: {:?}", r.qp);
+                }
+                if std::env::var("PHASES").is_ok() {
+                    let count = |w: Option<WarmUp>| r.log.iter().filter(|l| l.warm_up == w).count();
+                    let last = r.log.iter().rev().find(|l| l.accepted).map(|l| l.warm_up);
+                    println!(
+                        "  phases: barrier {} al {} kkt {} last {:?}",
+                        count(Some(WarmUp::Barrier)),
+                        count(Some(WarmUp::AugmentedLagrangian)),
+                        count(None),
+                        last
+                    );
+                }
+                Ok((
+                    r.cost,
+                    r.max_violation,
+                    r.iterations + r.discarded_iterations,
+                    r.status,
+                    ms,
+                ))
+            }) as Box<dyn FnMut() -> Result<Outcome, Box<dyn std::error::Error>>>
         }};
     }
     Ok(if bp.model == "unicycle" {

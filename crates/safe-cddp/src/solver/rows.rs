@@ -70,7 +70,7 @@ where
     pub sg: Vec<f64>,
     pub sw: Vec<f64>,
     pub zero_u: VectorN<NU>,
-    /// `g` of every row along a trajectory ([`Rows::for_each_row`]).
+    /// `g` of every row along a trajectory ([`Rows::for_each_block`]).
     along: Vec<f64>,
     /// The largest relative degree (0 without state rows): the rows of knots
     /// `k <= n - max_degree` are all within the horizon.
@@ -89,6 +89,42 @@ pub(crate) struct Violation {
     /// The largest violation of a tightened row at a knot where two or more rows are violated
     /// at once (inside the overlap of two obstacles: [`crate::Settings::barrier_funnel`]).
     pub overlap: f64,
+}
+
+/// The running sums of [`Rows::violation`].
+#[derive(Default)]
+struct ViolationSum {
+    term: f64,
+    max: f64,
+    overlap: f64,
+}
+
+/// The violated rows of one knot seen so far.
+#[derive(Default)]
+struct KnotViolation {
+    count: u32,
+    max: f64,
+}
+
+impl ViolationSum {
+    /// Takes in row value `v` of the knot `knot`. Comparisons rather than `f64::max`, which
+    /// handles NaN on every call: a NaN row leaves `max` as `f64::max` would (and makes `term`
+    /// NaN, which the line search rejects).
+    #[inline(always)]
+    fn add(&mut self, knot: &mut KnotViolation, v: f64) {
+        if v > 0.0 {
+            if v > self.max {
+                self.max = v;
+            }
+            knot.count += 1;
+            if v > knot.max {
+                knot.max = v;
+            }
+            if knot.count >= 2 && knot.max > self.overlap {
+                self.overlap = knot.max;
+            }
+        }
+    }
 }
 
 /// How the merit weighs violations: the exact penalty of the KKT phase, the
@@ -323,18 +359,19 @@ where
         }
     }
 
-    /// Visits every constraint row of knots `0 .. n` evaluated along `(xs, us)`: calls
-    /// `f(k, row index, g + margin)`, knot by knot. Each constraint is evaluated along the whole
-    /// trajectory in one call ([`Constraint::evaluate_along`]) first: the line search evaluates
-    /// every trial, and one virtual call per constraint and knot cost more than the circles'
-    /// arithmetic.
-    fn for_each_row(
+    /// Visits every constraint row of knots `0 .. n` evaluated along `(xs, us)`, knot by knot,
+    /// in blocks of consecutive rows: calls `f(k, first row index, g, margin)` with the block's
+    /// `g` and margins (one block per knot where all its rows are within the horizon, one per
+    /// constraint near its end). Each constraint is evaluated along the whole trajectory in one
+    /// call ([`Constraint::evaluate_along`]) first: the line search evaluates every trial, and
+    /// one virtual call per constraint and knot cost more than the circles' arithmetic.
+    fn for_each_block(
         &mut self,
         constraints: &[Arc<dyn Constraint<NX, NU>>],
         xs: &[VectorN<NX>],
         us: &[VectorN<NU>],
         n: usize,
-        mut f: impl FnMut(usize, usize, f64),
+        mut f: impl FnMut(usize, usize, &[f64], &[f64]),
     ) {
         let m = self.m;
         for (j, slot) in self.slots.iter().enumerate() {
@@ -355,17 +392,12 @@ where
             let base = k * m;
             if k + self.max_degree <= n {
                 let rows = base..base + self.bound_offset;
-                let (g, margin) = (&self.along[rows.clone()], &self.margin[rows.clone()]);
-                for (i, (g, margin)) in rows.zip(g.iter().zip(margin)) {
-                    f(k, i, g + margin);
-                }
+                f(k, base, &self.along[rows.clone()], &self.margin[rows]);
             } else {
                 for slot in &self.slots {
                     if slot.time(k, n).is_some() {
                         let rows = base + slot.offset..base + slot.offset + slot.dim;
-                        for i in rows {
-                            f(k, i, self.along[i] + self.margin[i]);
-                        }
+                        f(k, rows.start, &self.along[rows.clone()], &self.margin[rows]);
                     }
                 }
             }
@@ -412,29 +444,23 @@ where
         n: usize,
         term_of: impl Fn(usize, f64) -> f64,
     ) -> Violation {
-        let (mut term, mut max) = (0.0, 0.0f64);
-        let (mut knot, mut count, mut knot_max, mut overlap) = (usize::MAX, 0u32, 0.0f64, 0.0f64);
-        // Comparisons rather than `f64::max`, which handles NaN on every call: a NaN row leaves
-        // `max` as `f64::max` would (and makes `term` NaN, which the line search rejects).
-        self.for_each_row(constraints, xs, us, n, |k, i, v| {
-            term += term_of(i, v);
-            if v > 0.0 {
-                if v > max {
-                    max = v;
-                }
-                if k != knot {
-                    (knot, count, knot_max) = (k, 0, 0.0);
-                }
-                count += 1;
-                if v > knot_max {
-                    knot_max = v;
-                }
-                if count >= 2 && knot_max > overlap {
-                    overlap = knot_max;
-                }
+        let mut acc = ViolationSum::default();
+        let (mut knot, mut at) = (KnotViolation::default(), usize::MAX);
+        self.for_each_block(constraints, xs, us, n, |k, first, g, margin| {
+            if k != at {
+                (knot, at) = (KnotViolation::default(), k);
+            }
+            for (i, (g, margin)) in (first..).zip(g.iter().zip(margin)) {
+                let v = g + margin;
+                acc.term += term_of(i, v);
+                acc.add(&mut knot, v);
             }
         });
-        Violation { term, max, overlap }
+        Violation {
+            term: acc.term,
+            max: acc.max,
+            overlap: acc.overlap,
+        }
     }
 
     /// The first knot whose rows, evaluated along `(xs, us)`, violate a tightened row by more
@@ -448,8 +474,8 @@ where
         tol: f64,
     ) -> Option<usize> {
         let mut first: Option<usize> = None;
-        self.for_each_row(constraints, xs, us, n, |k, _, v| {
-            if v > tol && first.is_none_or(|f| k < f) {
+        self.for_each_block(constraints, xs, us, n, |k, _, g, margin| {
+            if first.is_none() && g.iter().zip(margin).any(|(g, margin)| g + margin > tol) {
                 first = Some(k);
             }
         });

@@ -157,7 +157,12 @@ where
             copy(&mut w.q_ux[k], &q.q_ux);
             copy(&mut w.q_uu_r[k], &q.q_uu_r);
         }
-        Ok(GainsInfo { gradient, exact: false })
+        // Without a working row the gains are the regularised Newton step, so the core's value
+        // update takes its collapsed form, one product instead of three (as for `FreeGains`).
+        Ok(GainsInfo {
+            gradient,
+            exact: mw == 0,
+        })
     }
 }
 

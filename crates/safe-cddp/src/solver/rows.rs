@@ -240,18 +240,18 @@ where
         let m = self.m;
         for k in 0..n {
             // Every row of the knot is within the horizon (set per constraint otherwise).
-            let all = k + self.max_degree <= n;
-            if all {
+            if self.whole_knot(k, n) {
                 self.present[k * m..k * m + self.bound_offset].fill(true);
-            }
-            for slot in &self.slots {
-                let base = k * m + slot.offset;
-                let rows = base..base + slot.dim;
-                if slot.time(k, n).is_none() {
-                    self.present[rows.clone()].fill(false);
-                    self.lambda[rows].fill(0.0);
-                } else if !all {
-                    self.present[rows].fill(true);
+            } else {
+                for slot in &self.slots {
+                    let base = k * m + slot.offset;
+                    let rows = base..base + slot.dim;
+                    if slot.time(k, n).is_none() {
+                        self.present[rows.clone()].fill(false);
+                        self.lambda[rows].fill(0.0);
+                    } else {
+                        self.present[rows].fill(true);
+                    }
                 }
             }
             self.linearize_bounds(k, bounds, &us[k]);
@@ -359,6 +359,13 @@ where
         }
     }
 
+    /// Whether every row of knot `k` lies within the horizon `n` (`k + max_degree <= n`): the
+    /// knot's rows are then the one block `k m .. k m + bound_offset`.
+    #[inline]
+    pub fn whole_knot(&self, k: usize, n: usize) -> bool {
+        k + self.max_degree <= n
+    }
+
     /// Visits every constraint row of knots `0 .. n` evaluated along `(xs, us)`, knot by knot,
     /// in blocks of consecutive rows: calls `f(k, first row index, g, margin)` with the block's
     /// `g` and margins (one block per knot where all its rows are within the horizon, one per
@@ -390,7 +397,7 @@ where
         }
         for k in 0..n {
             let base = k * m;
-            if k + self.max_degree <= n {
+            if self.whole_knot(k, n) {
                 let rows = base..base + self.bound_offset;
                 f(k, base, &self.along[rows.clone()], &self.margin[rows]);
             } else {

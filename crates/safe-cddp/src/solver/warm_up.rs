@@ -292,7 +292,22 @@ where
         let rows = &mut self.rows;
         let lin = &mut self.core.lin;
         let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
+        let (lambda, rho) = (&self.warm.lambda, self.warm.rho);
         for k in 0..n {
+            // Most knots of the augmented Lagrangian add nothing: no row with a positive
+            // `nu = max(0, lambda + rho g~)` and none near its boundary (each obstacle binds over
+            // a short stretch). One sweep over the knot's block of rows finds them, rather than
+            // the per-constraint loop below.
+            if !barrier && rows.whole_knot(k, n) {
+                let mut block = k * rows.m..k * rows.m + rows.bound_offset;
+                let idle = block.all(|i| {
+                    let v = rows.g[i] + rows.margin[i];
+                    !(lambda[i] + rho * v > 0.0) && !(near && v > -s_near_margin)
+                });
+                if idle {
+                    continue;
+                }
+            }
             for (j, slot) in rows.slots.iter().enumerate() {
                 if slot.dim == 0 {
                     continue;

@@ -913,8 +913,9 @@ where
             }
             mul_vec_add(&mut self.du, None, &self.policy.k_fb[k], &self.dx);
             let u = &mut t.us_try[k];
-            for i in 0..u.len() {
-                u[i] = t.us[k][i] + alpha * self.policy.k_ff[k][i] + self.du[i];
+            let terms = t.us[k].iter().zip(self.policy.k_ff[k].iter()).zip(self.du.iter());
+            for (u, ((u_nom, k_ff), du)) in u.iter_mut().zip(terms) {
+                *u = u_nom + alpha * k_ff + du;
             }
             if let Some(b) = bounds {
                 b.clamp_mut(u);

@@ -299,10 +299,11 @@ where
             // a short stretch). One sweep over the knot's block of rows finds them, rather than
             // the per-constraint loop below.
             if !barrier && rows.whole_knot(k, n) {
-                let mut block = k * rows.m..k * rows.m + rows.bound_offset;
-                let idle = block.all(|i| {
-                    let v = rows.g[i] + rows.margin[i];
-                    !(lambda[i] + rho * v > 0.0) && !(near && v > -s_near_margin)
+                let block = k * rows.m..k * rows.m + rows.bound_offset;
+                let (g, margin) = (&rows.g[block.clone()], &rows.margin[block.clone()]);
+                let idle = g.iter().zip(margin).zip(&lambda[block]).all(|((g, margin), lambda)| {
+                    let v = g + margin;
+                    !(lambda + rho * v > 0.0) && !(near && v > -s_near_margin)
                 });
                 if idle {
                     continue;

@@ -176,11 +176,17 @@ where
         let (w, rows) = (&mut *self.kkt, &mut *self.rows);
         let base = k * rows.m;
         w.cand.clear();
-        for i in self.first_row..rows.m {
-            let idx = base + i;
-            if rows.present[idx] {
-                let g = rows.g[idx] + rows.margin[idx];
-                if g > -self.eps || (self.keep_positive && rows.lambda[idx] > 0.0) {
+        let span = base + self.first_row..base + rows.m;
+        let (present, g, margin) = (
+            &rows.present[span.clone()],
+            &rows.g[span.clone()],
+            &rows.margin[span.clone()],
+        );
+        let rows_of_knot = present.iter().zip(g.iter().zip(margin)).zip(&rows.lambda[span]);
+        for (i, ((&present, (g, margin)), &lambda)) in (self.first_row..).zip(rows_of_knot) {
+            if present {
+                let g = g + margin;
+                if g > -self.eps || (self.keep_positive && lambda > 0.0) {
                     w.cand.push((g, i));
                 }
             }

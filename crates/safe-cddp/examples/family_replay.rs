@@ -24,7 +24,7 @@
 //! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES` print
 //! per-solve details. `REPEATS=R` times the fastest of `R` solves of each problem, each a cold
 //! solve (`SafeCddpSolver::reset`) on the same solver, as `family.py` re-solves through the Python
-//! wrapper (a first solve on a new solver also pays for its workspace's first use); `AB=1` also
+//! wrapper; `AB=1` also
 //! solves each problem with the defaults (and the command line's warm-up), interleaved with the
 //! settings above, and prints `AB` lines with both outcomes and the time ratio (`bench/peers/README.md`).
 use std::time::Instant;

@@ -321,3 +321,52 @@ where
     }
     (0..m).all(|r| s[(r, r)] * s[(r, r)] > 1e-10 * scale)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ddp_core::solver::{BackwardOptions, Core, FreeGains, Method, Regularization, RegularizationSettings};
+
+    /// At knots without a working row the KKT gains are the core's regularised Newton step and
+    /// report it (`GainsInfo::exact`), so the backward pass takes the core's collapsed value
+    /// update: the same gains and value function as `FreeGains`, bit for bit. (With the general
+    /// update of Xie et al.'s eq. (14) they differ in the last bits.)
+    #[test]
+    fn without_working_rows_the_backward_pass_is_the_free_one_bit_for_bit() {
+        let problem = ddp_core::reference::p1_unicycle();
+        let (dims, n) = (problem.dims(), problem.horizon());
+        let mut free = Core::new(dims, n, &RegularizationSettings::default());
+        for (k, u) in free.traj.us.iter_mut().enumerate() {
+            u[0] = 0.3 + 0.01 * k as f64;
+            u[1] = -0.2;
+        }
+        free.rollout(&problem);
+        free.linearize(&problem, Method::Ilqr);
+        let mut kkt_core = free.clone();
+        let opts = BackwardOptions {
+            mu: 1e-3,
+            placement: Regularization::Control,
+            method: Method::Ilqr,
+            gated: false,
+        };
+        free.backward(&problem, &mut FreeGains, opts).unwrap();
+        // No constraint rows, no bounds: the knots' rows (two control-bound sides each) are absent.
+        let mut rows = Rows::new(dims, vec![], n);
+        let mut kkt = Kkt::new(dims, n, rows.m);
+        let mut gains = KktGains {
+            kkt: &mut kkt,
+            rows: &mut rows,
+            eps: 1e-6,
+            first_row: 0,
+            keep_positive: false,
+            hessian: false,
+            forward_qp: false,
+        };
+        kkt_core.backward(&problem, &mut gains, opts).unwrap();
+        assert_eq!(kkt.active, 0);
+        assert_eq!(kkt_core.policy.k_ff, free.policy.k_ff);
+        assert_eq!(kkt_core.policy.k_fb, free.policy.k_fb);
+        assert_eq!(kkt_core.value.v_x, free.value.v_x);
+        assert_eq!(kkt_core.value.v_xx, free.value.v_xx);
+    }
+}

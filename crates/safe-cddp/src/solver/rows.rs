@@ -80,7 +80,7 @@ where
 }
 
 /// The merit terms of the constraint rows along a trajectory (see [`Rows::violation`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub(crate) struct Violation {
     /// The merit term: `rho sum max(0, g~)`, or the warm-up's augmented-Lagrangian or barrier sum.
     pub term: f64,
@@ -91,14 +91,6 @@ pub(crate) struct Violation {
     pub overlap: f64,
 }
 
-/// The running sums of [`Rows::violation`].
-#[derive(Default)]
-struct ViolationSum {
-    term: f64,
-    max: f64,
-    overlap: f64,
-}
-
 /// The violated rows of one knot seen so far.
 #[derive(Default)]
 struct KnotViolation {
@@ -106,8 +98,8 @@ struct KnotViolation {
     max: f64,
 }
 
-impl ViolationSum {
-    /// Takes in row value `v` of the knot `knot`. Comparisons rather than `f64::max`, which
+impl Violation {
+    /// Takes in row value `v` of the knot `knot` (the merit term is summed by the caller). Comparisons rather than `f64::max`, which
     /// handles NaN on every call: a NaN row leaves `max` as `f64::max` would (and makes `term`
     /// NaN, which the line search rejects).
     #[inline(always)]
@@ -451,7 +443,7 @@ where
         n: usize,
         term_of: impl Fn(usize, f64) -> f64,
     ) -> Violation {
-        let mut acc = ViolationSum::default();
+        let mut acc = Violation::default();
         let (mut knot, mut at) = (KnotViolation::default(), usize::MAX);
         self.for_each_block(constraints, xs, us, n, |k, first, g, margin| {
             if k != at {
@@ -463,11 +455,7 @@ where
                 acc.add(&mut knot, v);
             }
         });
-        Violation {
-            term: acc.term,
-            max: acc.max,
-            overlap: acc.overlap,
-        }
+        acc
     }
 
     /// The first knot whose rows, evaluated along `(xs, us)`, violate a tightened row by more

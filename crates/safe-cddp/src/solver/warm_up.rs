@@ -292,18 +292,18 @@ where
         let rows = &mut self.rows;
         let lin = &mut self.core.lin;
         let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);
-        let (lambda, rho) = (&self.warm.lambda, self.warm.rho);
         for k in 0..n {
             // Most knots of the augmented Lagrangian add nothing: no row with a positive
-            // `nu = max(0, lambda + rho g~)` and none near its boundary (each obstacle binds over
-            // a short stretch). One sweep over the knot's block of rows finds them, rather than
-            // the per-constraint loop below.
+            // multiplier estimate `nu` and none near its boundary (each obstacle binds over a
+            // short stretch). One sweep over the knot's block of rows finds them, rather than the
+            // per-constraint loop below.
             if !barrier && rows.whole_knot(k, n) {
-                let block = k * rows.m..k * rows.m + rows.bound_offset;
-                let (g, margin) = (&rows.g[block.clone()], &rows.margin[block.clone()]);
-                let idle = g.iter().zip(margin).zip(&lambda[block]).all(|((g, margin), lambda)| {
+                let first = k * rows.m;
+                let block = first..first + rows.bound_offset;
+                let (g, margin) = (&rows.g[block.clone()], &rows.margin[block]);
+                let idle = (first..).zip(g.iter().zip(margin)).all(|(i, (g, margin))| {
                     let v = g + margin;
-                    !(lambda + rho * v > 0.0) && !(near && v > -s_near_margin)
+                    !(merit.row(i, v).1 > 0.0) && !(near && v > -s_near_margin)
                 });
                 if idle {
                     continue;

@@ -156,6 +156,12 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "obstacle at once, after the flipped starts; the default before 2026-12-06, night)",
     )
     ap.add_argument(
+        "--no-abandon",
+        action="store_true",
+        help="ddpkit with SafeCddpSolver(portfolio_abandon=None): later starts run on when feasible far above the "
+        "kept cost (the default before 2026-12-07)",
+    )
+    ap.add_argument(
         "--portfolio-threads",
         type=int,
         default=1,
@@ -189,6 +195,8 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
         options["portfolio_flip_starts"] = args.flip_starts
     if args.no_mirror:
         options["portfolio_mirror"] = None
+    if args.no_abandon:
+        options["portfolio_abandon"] = None
     if args.apart is not None:
         options["portfolio_apart"] = args.apart
     if args.barrier_funnel is not None:

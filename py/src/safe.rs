@@ -822,6 +822,7 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("portfolio_flip_apart", s.portfolio_flip_apart)?;
     d.set_item("portfolio_flip_starts", s.portfolio_flip_starts)?;
     d.set_item("portfolio_mirror", s.portfolio_mirror)?;
+    d.set_item("portfolio_abandon", s.portfolio_abandon)?;
     d.set_item(
         "barrier_funnel",
         s.barrier_funnel.is_finite().then_some(s.barrier_funnel),
@@ -860,6 +861,7 @@ fn settings_from(
     portfolio_flip_apart: f64,
     portfolio_flip_starts: i64,
     portfolio_mirror: Option<i64>,
+    portfolio_abandon: Option<f64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -931,6 +933,7 @@ fn settings_from(
         portfolio_flip_apart,
         portfolio_flip_starts,
         portfolio_mirror,
+        portfolio_abandon,
         // `None`: no limit.
         barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
         barrier_mu_init,
@@ -1151,6 +1154,7 @@ impl SafeCddpSolver {
                         portfolio_flip_apart = Settings::default().portfolio_flip_apart,
                         portfolio_flip_starts = Settings::default().portfolio_flip_starts as i64,
                         portfolio_mirror = default_mirror(),
+                        portfolio_abandon = Settings::default().portfolio_abandon,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -1160,7 +1164,7 @@ impl SafeCddpSolver {
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_abandon=0.3, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
     )]
     #[allow(clippy::too_many_arguments)]
@@ -1182,6 +1186,7 @@ impl SafeCddpSolver {
         portfolio_flip_apart: f64,
         #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_flip_starts: i64,
         #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
+        portfolio_abandon: Option<f64>,
         barrier_funnel: Option<f64>,
         barrier_mu_init: f64,
         barrier_relaxation: f64,
@@ -1203,6 +1208,7 @@ impl SafeCddpSolver {
             portfolio_flip_apart,
             portfolio_flip_starts,
             portfolio_mirror,
+            portfolio_abandon,
             barrier_funnel,
             barrier_mu_init,
             barrier_relaxation,
@@ -1389,8 +1395,9 @@ pub struct SafeSolution {
     /// (``True`` for the start steered to the other side of every obstacle, ``portfolio_mirror``),
     /// ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
     /// on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its homotopy on the
-    /// kept solution's sides) or ``"stalled"`` (stopped where, at the rate its cost fell, it
-    /// could not reach the kept cost within its iterations).
+    /// kept solution's sides), ``"stalled"`` (stopped where, at the rate its cost fell, it
+    /// could not reach the kept cost within its iterations) or ``"abandoned"`` (stopped at a
+    /// feasible path more than ``portfolio_abandon`` above the kept cost).
     #[pyo3(get)]
     starts: Py<PyList>,
     table: Table,
@@ -1698,6 +1705,7 @@ impl Mpc {
             d.portfolio_flip_apart,
             d.portfolio_flip_starts as i64,
             default_mirror(),
+            d.portfolio_abandon,
             Some(d.barrier_funnel),
             d.barrier_mu_init,
             d.barrier_relaxation,
@@ -2008,6 +2016,7 @@ where
                         portfolio_flip_apart = Settings::default().portfolio_flip_apart,
                         portfolio_flip_starts = Settings::default().portfolio_flip_starts as i64,
                         portfolio_mirror = default_mirror(),
+                        portfolio_abandon = Settings::default().portfolio_abandon,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -2016,7 +2025,7 @@ where
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_abandon=0.3, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -2040,6 +2049,7 @@ fn solve_batch_safe(
     portfolio_flip_apart: f64,
     #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_flip_starts: i64,
     #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
+    portfolio_abandon: Option<f64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -2060,6 +2070,7 @@ fn solve_batch_safe(
         portfolio_flip_apart,
         portfolio_flip_starts,
         portfolio_mirror,
+        portfolio_abandon,
         barrier_funnel,
         barrier_mu_init,
         barrier_relaxation,

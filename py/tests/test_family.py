@@ -272,6 +272,40 @@ def test_a_mirrored_start_goes_round_the_other_side_of_a_whole_cluster() -> None
         solve.DdpkitSolver(p, safe_options={"portfolio_mirror": 0})
 
 
+def test_a_start_feasible_far_above_the_kept_cost_is_abandoned() -> None:
+    # car-s2-i59-a0 (bench/results/family_s2_210_funnel.json): the augmented Lagrangian's start
+    # is kept; the flipped start of the second obstacle and the mirrored start wander for 266 and
+    # 210 iterations to feasible paths at 500x and 20x its cost. With `portfolio_abandon` (the
+    # default, 0.3 after 45 iterations) they stop once feasible more than 30 % above it.
+    import pickle
+
+    import ddpkit
+    import solve
+
+    assert ddpkit.default_settings("SafeCddpSolver")["portfolio_abandon"] == 0.3
+    spec = family.generate("car", 2, 59)
+    assert spec["name"] == "car-s2-i59-a0"
+    p = parse(spec)
+    solver = solve.DdpkitSolver(p, safe_options={}).constrained
+    on = solver.solve()
+    no = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "2", "--no-abandon"]))
+    assert no["portfolio_abandon"] is None
+    off = solve.DdpkitSolver(p, safe_options=no).constrained.solve()
+    # The same solution, bit for bit, with fewer discarded iterations.
+    assert on.cost == off.cost and on.iterations == off.iterations
+    assert on.discarded_iterations + 200 < off.discarded_iterations
+    abandoned = [st for st in on.starts if st["outcome"] == "abandoned"]
+    assert abandoned and all(st["flip"] is not None or st["mirror"] for st in abandoned)
+    assert all(st["cost"] > 1.3 * on.cost and st["max_violation"] <= 1e-8 for st in abandoned)
+    assert not any(st["outcome"] == "abandoned" for st in off.starts)
+    # The setting pickles with the solver; a negative fraction is an error naming it.
+    again = pickle.loads(pickle.dumps(solver))
+    assert again == solver
+    assert again != solve.DdpkitSolver(p, safe_options={"portfolio_abandon": None}).constrained
+    with pytest.raises(ValueError, match="portfolio_abandon"):
+        solve.DdpkitSolver(p, safe_options={"portfolio_abandon": -0.1})
+
+
 def test_the_flip_gate_is_lower_where_the_first_two_starts_end_apart() -> None:
     # point-s10-i22-a0 (bench/results/family_s10_210.json): the first two starts end apart, and
     # the kept solution costs 1.44x the obstacle-free optimum, below `portfolio_flip`'s gate of

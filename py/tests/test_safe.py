@@ -106,7 +106,7 @@ def test_the_solution_lists_the_portfolio_starts_and_pickles_them() -> None:
     starts = sol.starts
     assert [s["warm_up"] for s in starts[:2]] == ["augmented_lagrangian", "barrier"]
     assert starts[-1]["warm_up"] == "polish" and all(s["barrier_mu_init"] is None for s in starts)
-    assert {s["outcome"] for s in starts} <= {"kept", "polished", "discarded", "same_side", "stalled"}
+    assert {s["outcome"] for s in starts} <= {"kept", "polished", "discarded", "same_side", "stalled", "abandoned"}
     kept = [s for s in starts if s["outcome"] == "kept"]
     assert len(kept) == 1 and kept[0]["cost"] == sol.cost and kept[0]["status"] == "converged"
     # The kept start (with the one the polish went on from) makes up `iterations`, the others

@@ -18,10 +18,10 @@
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
 //! the augmented Lagrangian, `KKT_STEP_MIN` `kkt_step_min`, `MAX_IT` `max_iterations` (`family.py`
-//! solves with 500, the library's default is 200), `STALL` `portfolio_stall`, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
+//! solves with 500, the library's default is 200), `STALL` `portfolio_stall`, `ABANDON`, `ABANDON_AFTER` `portfolio_abandon` (0: none), `portfolio_abandon_after`, `EPS` `active_threshold`, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
 //! `al_inner_progress`, `al_inner_progress_below`, `NEAR_MARGIN`, `NEAR_RHO` `al_near_margin`,
 //! `al_near_rho`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
-//! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES` print
+//! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES`, `STARTS` print
 //! per-solve details. `REPEATS=R` times the fastest of `R` solves of each problem, each a cold
 //! solve (`SafeCddpSolver::reset`) on the same solver, as `family.py` re-solves through the Python
 //! wrapper; `AB=1` also
@@ -151,6 +151,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("STALL") {
         s.portfolio_stall = v as usize;
+    }
+    if let Some(v) = env("ABANDON") {
+        // 0: none.
+        s.portfolio_abandon = (v > 0.0).then_some(v);
+    }
+    if let Some(v) = env("ABANDON_AFTER") {
+        s.portfolio_abandon_after = v as usize;
+    }
+    if let Some(v) = env("EPS") {
+        s.active_threshold = v;
     }
     if let Some(v) = env("MAX_IT") {
         s.max_iterations = v as usize;
@@ -286,6 +296,19 @@ fn runner(
                         "  passes: it {} fp {} bp {}",
                         r.iterations, r.forward_passes, r.backward_passes
                     );
+                }
+                if std::env::var("STARTS").is_ok() {
+                    for st in &r.starts {
+                        println!(
+                            "  start {:28} it {:4} cost {:.10e} viol {:.1e} {:?} {:?}",
+                            st.name(),
+                            st.iterations,
+                            st.cost,
+                            st.max_violation,
+                            st.status,
+                            st.outcome
+                        );
+                    }
                 }
                 if std::env::var("QPS").is_ok() {
                     println!("  qp: {:?}", r.qp);

@@ -402,6 +402,104 @@ fn a_start_that_cannot_reach_the_kept_cost_stops() {
     assert_eq!(two.us(), one.us());
 }
 
+/// Problem 59 of the car family, seed 2 (`bench/results/family_s2_210_funnel.json`): the
+/// augmented Lagrangian's start is kept at 0.625 (0.3 % above FATROP's optimum); the flipped
+/// start of the second obstacle and the mirrored start wander for 266 and 210 iterations to
+/// feasible paths at 314 and 12.5.
+const CAR_S2_I59: &str = r#"{"name": "car-s2-i59-a0", "model": "car", "dt": 0.0788, "N": 127, "x0": [0.0, 0.0, 1.6259, 0.0], "cost": {"kind": "quad_goal", "x_goal": [0.7759, 2.8412, 1.5856, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[0.5185, 1.3928, 0.252], [0.2654, 2.0295, 0.3508], [0.6359, 1.7408, 0.3], [0.939, 2.1961, 0.3666], [0.6364, 1.4168, 0.455]]}"#;
+
+#[test]
+fn a_start_feasible_far_above_the_kept_cost_is_abandoned() {
+    let settings = Settings {
+        max_iterations: 500,
+        ..Settings::default()
+    };
+    let run_on = solve(
+        CAR_S2_I59,
+        Settings {
+            portfolio_abandon: None,
+            ..settings
+        },
+    );
+    let (problem, mut one) = solver(CAR_S2_I59, settings);
+    let stop = one.solve(&problem).unwrap().clone();
+    // The same solution, to the bit, with fewer discarded iterations.
+    assert_eq!(stop.cost.to_bits(), run_on.cost.to_bits());
+    assert_eq!(stop.iterations, run_on.iterations);
+    assert!(
+        stop.discarded_iterations + 200 < run_on.discarded_iterations,
+        "{} against {}",
+        stop.discarded_iterations,
+        run_on.discarded_iterations
+    );
+    let abandoned: Vec<_> = stop
+        .starts
+        .iter()
+        .filter(|s| s.outcome == StartOutcome::Abandoned)
+        .collect();
+    assert!(!abandoned.is_empty(), "{}", stop.table());
+    for s in &abandoned {
+        // Stopped past the iterations the rule waits, feasible and more than 30 % above.
+        assert!(s.flip.is_some() || s.mirror, "{}", stop.table());
+        assert!(s.iterations > settings.portfolio_abandon_after, "{}", stop.table());
+        assert!(s.max_violation <= settings.constraint_tolerance);
+        assert!(s.cost > 1.3 * stop.cost, "{}", stop.table());
+    }
+    assert!(stop.table().contains(": abandoned"), "{}", stop.table());
+    assert!(!run_on.starts.iter().any(|s| s.outcome == StartOutcome::Abandoned));
+    check_totals(&stop);
+    // Two threads (the first two starts at once) stop them the same way.
+    let (_, mut two) = solver(
+        CAR_S2_I59,
+        Settings {
+            portfolio_threads: 2,
+            ..settings
+        },
+    );
+    let r = two.solve(&problem).unwrap();
+    assert_eq!(r.starts, stop.starts);
+    assert_eq!(two.us(), one.us());
+    // A negative or NaN fraction is rejected, naming the field.
+    for bad in [-0.1, f64::NAN] {
+        let s = Settings {
+            portfolio_abandon: Some(bad),
+            ..Settings::default()
+        };
+        assert!(s.validate().unwrap_err().to_string().contains("portfolio_abandon"));
+    }
+}
+
+/// Problem 15 of the car family, seed 14 (`bench/results/family_s14_210_idle.json`): the third
+/// start (the barrier from `mu = 3e-3`) ends its homotopy on a feasible path at 210x the cost
+/// of the kept solution, then comes down to 1.16646, and the polish from it to 1.16533, 2.8e-4
+/// below FATROP's optimum (1.16565).
+const CAR_S14_I15: &str = r#"{"name": "car-s14-i15-a0", "model": "car", "dt": 0.0843, "N": 94, "x0": [0.0, 0.0, 0.6723, 0.0], "cost": {"kind": "quad_goal", "x_goal": [1.539, 2.2592, 0.875, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[1.5189, 1.837, 0.3046], [1.1111, 1.024, 0.4759], [0.5207, 0.6176, 0.4583], [0.839, 1.665, 0.476]]}"#;
+
+#[test]
+fn the_third_start_is_not_abandoned() {
+    let settings = Settings {
+        max_iterations: 500,
+        ..Settings::default()
+    };
+    let r = solve(CAR_S14_I15, settings);
+    let run_on = solve(
+        CAR_S14_I15,
+        Settings {
+            portfolio_abandon: None,
+            ..settings
+        },
+    );
+    assert_eq!(r.cost.to_bits(), run_on.cost.to_bits(), "{}", r.table());
+    assert!(r.cost < 1.16565 * (1.0 - 1e-4), "{}", r.table());
+    let third = r
+        .starts
+        .iter()
+        .find(|s| s.barrier_mu_init.is_some())
+        .expect("a third start");
+    assert_eq!(third.outcome, StartOutcome::Polished, "{}", r.table());
+    check_totals(&r);
+}
+
 /// Problem 21 of the point-robot family, seed 1 (`bench/results/family_s1_210_crawl.json`): every
 /// other start, and the flipped start of the one obstacle that binds, passes the cluster of four
 /// obstacles on the side that costs 35 % above FATROP's optimum, which passes all four on the

@@ -491,16 +491,20 @@ where
         guide.settings.max_iterations = self.settings.max_iterations;
         // Still the augmented Lagrangian (not the barrier of a cold portfolio start), with the
         // guided iterations' multipliers and penalty; stopped where it crawls above the kept
-        // cost (`Settings::portfolio_stall`).
-        guide.portfolio.beat = (self.settings.portfolio_stall > 0).then_some(self.report.cost);
-        guide.solve_from_start(problem)?;
+        // cost (`Settings::portfolio_stall`) or ends up well above it
+        // (`Settings::portfolio_abandon`).
+        guide.portfolio.beat = self.settings.tests_later_starts().then_some(self.report.cost);
+        guide.portfolio.guided = true;
+        let solved = guide.solve_from_start(problem);
+        guide.portfolio.guided = false;
+        solved?;
         guide.portfolio.beat = None;
-        let stalled = std::mem::take(&mut guide.portfolio.stalled);
+        let stopped = guide.portfolio.stopped.take();
         guide.portfolio.member = None;
         guide.report.iterations += guided;
         guide.report.qp += guided_qps;
         let r = &guide.report;
-        let keep = !stalled && better(r, &self.report, tol);
+        let keep = stopped.is_none() && better(r, &self.report, tol);
         let mut entry = StartReport {
             warm_up: WarmUp::AugmentedLagrangian,
             barrier_mu_init: None,
@@ -528,8 +532,8 @@ where
             self.report.clone_from(&guide.report);
             self.portfolio.best[..n].clone_from_slice(&guide.core.traj.us[..n]);
         } else {
-            if stalled {
-                entry.outcome = StartOutcome::Stalled;
+            if let Some(outcome) = stopped {
+                entry.outcome = outcome;
             }
             *discarded += r.iterations;
             *discarded_qps += r.qp;

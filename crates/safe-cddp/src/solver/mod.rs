@@ -201,10 +201,14 @@ where
     /// The running start stopped there.
     same_side: bool,
     /// The kept solution's cost, which the running start must be able to reach
-    /// ([`Settings::portfolio_stall`]; `None`: no such test).
+    /// ([`Settings::portfolio_stall`], [`Settings::portfolio_abandon`]; `None`: no such test).
     beat: Option<f64>,
-    /// The running start stopped for that.
-    stalled: bool,
+    /// The running start is a flipped or the mirrored one past its guided iterations, which
+    /// [`Settings::portfolio_abandon`] may stop.
+    guided: bool,
+    /// The running start stopped for that ([`StartOutcome::Stalled`] or
+    /// [`StartOutcome::Abandoned`]).
+    stopped: Option<StartOutcome>,
     /// The cost at the end of the augmented-Lagrangian start's first inner solve (zero
     /// multipliers, the initial penalty): a relaxation in which the path may still cut through
     /// the obstacles (`NaN` until then).
@@ -321,7 +325,8 @@ where
                 side_test: false,
                 same_side: false,
                 beat: None,
-                stalled: false,
+                guided: false,
+                stopped: None,
                 relaxed_cost: f64::NAN,
                 starts: Vec::with_capacity(MAX_STARTS + state_rows),
                 flips: Flips::new(dims, max_dim, state_rows),
@@ -693,13 +698,9 @@ where
                 status: r.status,
                 outcome: StartOutcome::Discarded,
             };
-            let stalled = std::mem::take(&mut p.stalled);
-            if std::mem::take(&mut p.same_side) || stalled {
-                entry.outcome = if stalled {
-                    StartOutcome::Stalled
-                } else {
-                    StartOutcome::SameSide
-                };
+            let stopped = p.stopped.take();
+            if std::mem::take(&mut p.same_side) || stopped.is_some() {
+                entry.outcome = stopped.unwrap_or(StartOutcome::SameSide);
                 p.starts.push(entry);
                 discarded += self.report.iterations;
                 discarded_qps += self.report.qp;
@@ -938,17 +939,28 @@ where
                     self.portfolio.same_side = true;
                     break;
                 }
-                // A later start that crawls above the kept cost (`Settings::portfolio_stall`).
                 if let Some(kept) = self.portfolio.beat {
-                    let full_step = matches!(outcome, IterationOutcome::Accepted { step, .. } if step == 1.0);
-                    let crawl = full_step
-                        && self.warm.active
-                        && !self.warm.barrier
-                        && self.it.violation_max <= self.settings.constraint_tolerance;
-                    let left = self.settings.max_iterations - done;
-                    if stall.update(crawl, self.core.cost, left, kept) >= self.settings.portfolio_stall {
-                        self.portfolio.stalled = true;
-                        break;
+                    let s = &self.settings;
+                    let feasible = self.it.violation_max <= s.constraint_tolerance;
+                    // A flipped or mirrored start that, well into its iterations on the side
+                    // its guide chose, is feasible far above the kept cost
+                    // (`Settings::portfolio_abandon`).
+                    if let Some(fraction) = s.portfolio_abandon.filter(|_| self.portfolio.guided) {
+                        if done > s.portfolio_abandon_after && feasible && self.core.cost > kept + fraction * kept.abs()
+                        {
+                            self.portfolio.stopped = Some(StartOutcome::Abandoned);
+                            break;
+                        }
+                    }
+                    // A later start that crawls above the kept cost (`Settings::portfolio_stall`).
+                    if s.portfolio_stall > 0 {
+                        let full_step = matches!(outcome, IterationOutcome::Accepted { step, .. } if step == 1.0);
+                        let crawl = full_step && self.warm.active && !self.warm.barrier && feasible;
+                        let left = s.max_iterations - done;
+                        if stall.update(crawl, self.core.cost, left, kept) >= s.portfolio_stall {
+                            self.portfolio.stopped = Some(StartOutcome::Stalled);
+                            break;
+                        }
                     }
                 }
                 match outcome {

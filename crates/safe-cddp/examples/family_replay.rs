@@ -20,8 +20,8 @@
 //! the augmented Lagrangian, `KKT_STEP_MIN` `kkt_step_min`, `MAX_IT` `max_iterations` (`family.py`
 //! solves with 500, the library's default is 200), `STALL` `portfolio_stall`, `ABANDON`, `ABANDON_AFTER` `portfolio_abandon` (0: none), `portfolio_abandon_after`, `EPS` `active_threshold`, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
 //! `al_inner_progress`, `al_inner_progress_below`, `NEAR_MARGIN`, `NEAR_RHO` `al_near_margin`,
-//! `al_near_rho`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `BARRIER_FACTOR`,
-//! `BARRIER_FINAL`, `BARRIER_INNER`, `BARRIER_RELAX` the homotopy's `barrier_mu_factor`, `barrier_mu_final`,
+//! `al_near_rho`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `BARRIER_MU`, `BARRIER_FACTOR`,
+//! `BARRIER_FINAL`, `BARRIER_INNER`, `BARRIER_RELAX` the homotopy's `barrier_mu_init`, `barrier_mu_factor`, `barrier_mu_final`,
 //! `barrier_inner_iterations`, `barrier_relaxation`; `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
 //! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES`, `STARTS` print
 //! per-solve details. `REPEATS=R` times the fastest of `R` solves of each problem, each a cold
@@ -138,6 +138,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("NEAR_RHO") {
         s.al_near_rho = v;
+    }
+    if let Some(v) = env("BARRIER_MU") {
+        s.barrier_mu_init = v;
     }
     if let Some(v) = env("BARRIER_FACTOR") {
         s.barrier_mu_factor = v;

@@ -189,10 +189,14 @@ pub struct Settings {
     /// augmented Lagrangian's and the barrier's) run at once, the second on a sibling solver on
     /// another thread, built at the first such solve (it allocates its own workspace then; each
     /// such solve starts a scoped thread); the third start and the polish follow on the calling
-    /// thread. Every start is the same computation as with 1, so the solution, iterations and
+    /// thread. The guided starts ([`Settings::portfolio_flip`], [`Settings::portfolio_mirror`])
+    /// then run two at a time on two guide solvers, each measured against the solution kept
+    /// before the pair ([`Settings::portfolio_abandon`], [`Settings::portfolio_stall`]); where
+    /// the first of a pair is kept, the second runs again against the new kept cost, as it would
+    /// after it. Every start is the same computation as with 1, so the solution, iterations and
     /// status are too; only the wall time differs (0.80x with the polish on
-    /// `bench/peers/family.py`: the longer of the two starts instead of their sum). 1 (the
-    /// default): one thread.
+    /// `bench/peers/family.py` with the first two starts at once; the guided starts in pairs
+    /// take the family replays to 0.91x-0.96x of that). 1 (the default): one thread.
     pub portfolio_threads: usize,
     /// [`WarmUp::Portfolio`]: where the kept solution (feasible) costs more than this factor
     /// times the optimum of the problem without its constraints (solved from the kept solution;

@@ -553,3 +553,57 @@ fn a_mirrored_start_of_zero_iterations_is_rejected_by_name() {
     let e = s.validate().unwrap_err().to_string();
     assert!(e.contains("portfolio_mirror") && e.contains("at least 1"), "{e}");
 }
+
+/// Problem 1 of the point-robot family, seed 1 (`bench/results/family_s1_210.json`): the flipped
+/// start of the first obstacle is kept (2.7843770898e-1, a hair below the polished solution),
+/// then the mirrored start runs.
+const POINT_S1_I1: &str = r#"{"name": "point-s1-i1-a0", "model": "point", "dt": 0.0785, "N": 109, "x0": [0.0, 0.0, 0.0, 0.0], "cost": {"kind": "quad_goal", "x_goal": [-2.7115, 2.9154, 0.0, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "u_min": [-0.5508, -0.5114], "u_max": [0.5508, 0.5114], "obstacles": [[-0.8078, 1.4126, 0.3181], [-2.485, 2.5196, 0.2907], [-1.5715, 1.6983, 0.2118], [-0.7672, 0.7201, 0.4476]]}"#;
+
+/// Problem 27 of the car family, seed 2 (`bench/results/family_s2_210.json`): the first flipped
+/// start is kept, the second is abandoned against its cost, then the mirrored start runs.
+const CAR_S2_I27: &str = r#"{"name": "car-s2-i27-a0", "model": "car", "dt": 0.0774, "N": 100, "x0": [0.0, 0.0, -2.813, 0.0], "cost": {"kind": "quad_goal", "x_goal": [-3.4032, -0.9171, -3.0187, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[-1.0096, -0.1858, 0.4051], [-2.8395, -0.5498, 0.2861], [-0.5702, 0.1125, 0.4536]]}"#;
+
+#[test]
+fn two_threads_run_the_guided_starts_two_at_a_time_as_one_thread_would() {
+    // With two threads the guided starts run two at a time, each measured against the solution
+    // kept before them; where the first of a pair is kept the second runs again against the new
+    // cost. `car-s2-i27-a0` takes that path with a second flipped start the new cost abandons,
+    // `point-s1-i1-a0` with the mirrored start, `car-s2-i59-a0` runs a pair neither of which is
+    // kept. Each problem is solved twice by each solver (the guide solvers are reused).
+    for json in [CAR_S2_I27, POINT_S1_I1, CAR_S2_I59] {
+        let (problem, mut one) = solver(json, Settings::default());
+        let (_, mut two) = solver(
+            json,
+            Settings {
+                portfolio_threads: 2,
+                ..Settings::default()
+            },
+        );
+        for round in 0..2 {
+            one.reset();
+            two.reset();
+            let a = one.solve(&problem).unwrap().clone();
+            let b = two.solve(&problem).unwrap().clone();
+            assert_eq!(a.starts, b.starts, "round {round}\n{}\n{}", a.table(), b.table());
+            assert_eq!(a.cost.to_bits(), b.cost.to_bits());
+            assert_eq!(
+                (a.iterations, a.discarded_iterations, a.backward_passes),
+                (b.iterations, b.discarded_iterations, b.backward_passes)
+            );
+            assert_eq!(one.us(), two.us());
+            assert_eq!(one.xs(), two.xs());
+            check_totals(&b);
+        }
+        let r = one.report();
+        let guided: Vec<_> = r.starts.iter().filter(|s| s.flip.is_some() || s.mirror).collect();
+        assert!(guided.len() >= 2, "{}", r.table());
+        if json != CAR_S2_I59 {
+            // The first guided start is kept, and another runs after it.
+            assert_eq!(guided[0].outcome, StartOutcome::Kept, "{}", r.table());
+        }
+        if json == CAR_S2_I27 {
+            assert_eq!(guided[1].outcome, StartOutcome::Abandoned, "{}", r.table());
+            assert!(guided[1].flip.is_some(), "{}", r.table());
+        }
+    }
+}

@@ -1405,7 +1405,8 @@ class SafeCddpSolver:
     the peers stays, for 0.97x the iterations; 10 of 2520 solutions end higher, where an
     abandoned start would have gone on below the peers' optimum.
     ``portfolio_threads``: 1, or 2 to run the portfolio's first two starts at once on two
-    threads (the same solution and iterations, less wall time). ``barrier_funnel`` (``None``: no
+    threads, and its flipped and mirrored starts two at a time (the same solution and
+    iterations, less wall time). ``barrier_funnel`` (``None``: no
     limit): after the barrier hands over, the augmented Lagrangian's trial steps may not pass
     this violation (in the constraints' units) where two or more rows are violated at once, so
     it does not step deep into a wall of overlapping obstacles, where its violation would stall:

@@ -27,7 +27,7 @@
 //! the guide row then has a target for every state row at once, each at the row's own most
 //! active time on the kept trajectory (binding or not), built as a flipped start's.
 
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use ddp_core::dims::{Alloc, DefaultAllocator, Dim, VectorN};
@@ -51,10 +51,12 @@ struct Target {
 }
 
 /// The guide row: its targets at their times (one for a flipped start, one per state row for the
-/// mirrored start), `-1` (inactive) at every other time and when lifted.
+/// mirrored start), `-1` (inactive) at every other time and while lifted. Lifting keeps the
+/// targets, so that a guided start can run again ([`SafeCddpSolver::run_ready`]).
 #[derive(Debug)]
 pub(crate) struct GuideRow {
     targets: Vec<Target>,
+    active: AtomicBool,
 }
 
 impl GuideRow {
@@ -66,10 +68,11 @@ impl GuideRow {
         };
         Self {
             targets: (0..capacity.max(1)).map(|_| target()).collect(),
+            active: AtomicBool::new(false),
         }
     }
 
-    /// Sets target `i` (the others keep theirs).
+    /// Sets target `i` (the others keep theirs); the row stays lifted until [`GuideRow::steer`].
     fn set(&self, i: usize, t: usize, a: &[f64], b: f64) {
         let target = &self.targets[i];
         for (slot, &v) in target.a.iter().zip(a) {
@@ -79,15 +82,32 @@ impl GuideRow {
         target.t.store(t, Ordering::Relaxed);
     }
 
-    fn lift(&self) {
+    /// Removes every target (and lifts the row).
+    fn clear(&self) {
+        self.lift();
         for target in &self.targets {
             target.t.store(usize::MAX, Ordering::Relaxed);
         }
     }
 
-    /// The target at time `t`, if any.
-    fn at(&self, t: usize) -> Option<&Target> {
+    /// The targets act.
+    fn steer(&self) {
+        self.active.store(true, Ordering::Relaxed);
+    }
+
+    /// The targets stop acting (they are kept).
+    fn lift(&self) {
+        self.active.store(false, Ordering::Relaxed);
+    }
+
+    /// The target set at time `t`, if any, acting or not.
+    fn find(&self, t: usize) -> Option<&Target> {
         self.targets.iter().find(|x| x.t.load(Ordering::Relaxed) == t)
+    }
+
+    /// The target acting at time `t`, if any.
+    fn at(&self, t: usize) -> Option<&Target> {
+        self.active.load(Ordering::Relaxed).then(|| self.find(t)).flatten()
     }
 }
 
@@ -145,15 +165,32 @@ enum Guided {
     Mirror,
 }
 
+/// A solver of guided starts and its guide row.
+struct Guide<NX: Dim, NU: Dim>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    /// This solver's constraints and the guide row (whose relative degree is the first
+    /// element), on the same row layout; built at the first guided start it runs.
+    solver: Option<(usize, Box<SafeCddpSolver<NX, NU>>)>,
+    row: Arc<GuideRow>,
+}
+
+/// A guided start ready to run on a guide: where it is steered, and its guided iterations.
+#[derive(Debug, Clone, Copy)]
+struct Ready {
+    start: Guided,
+    guide_iterations: usize,
+}
+
 /// The buffers of the flipped starts, built at the first solve that runs one.
 pub(super) struct Flips<NX: Dim, NU: Dim>
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    /// The solver of the flipped starts: this one's constraints and the guide row (whose
-    /// relative degree is the first element), on the same row layout.
-    guide: Option<(usize, Box<SafeCddpSolver<NX, NU>>)>,
-    row: Arc<GuideRow>,
+    /// The guided starts' solvers: the second runs a start alongside the first's where
+    /// [`crate::Settings::portfolio_threads`] is 2 or more (built at the first such start).
+    guides: [Guide<NX, NU>; 2],
     /// The obstacle-free problem's solver (the gate's reference cost).
     free: Option<Box<ddp_core::Solver<NX, NU>>>,
     /// `(multiplier sum, constraint, row, state row)` of each binding state row, in the order
@@ -169,9 +206,12 @@ where
     DefaultAllocator: Alloc<NX, NU>,
 {
     pub fn new(dims: ddp_core::Dims<NX, NU>, max_dim: usize, state_rows: usize) -> Self {
-        Self {
-            guide: None,
+        let guide = || Guide {
+            solver: None,
             row: Arc::new(GuideRow::new(dims.nx(), state_rows)),
+        };
+        Self {
+            guides: [guide(), guide()],
             free: None,
             binding: Vec::with_capacity(state_rows),
             g: vec![0.0; max_dim.max(1)],
@@ -186,7 +226,7 @@ where
 {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Flips")
-            .field("built", &self.guide.is_some())
+            .field("built", &self.guides.each_ref().map(|g| g.solver.is_some()))
             .field("binding", &self.binding)
             .finish_non_exhaustive()
     }
@@ -370,8 +410,16 @@ where
         }
         self.measure_sides(true);
         self.binding_rows();
-        // No target left over from a start that returned early with an error.
-        self.portfolio.flips.row.lift();
+        // No target left over from an earlier solve.
+        for guide in &self.portfolio.flips.guides {
+            guide.row.clear();
+        }
+        // With two threads the guided starts run two at a time, each on its own guide solver;
+        // their guides are all read from the solution kept before them, so only the order of
+        // the keep decisions ties them together (`run_ready`).
+        let width = if s.portfolio_threads > 1 { 2 } else { 1 };
+        let mut ready: [Option<Ready>; 2] = [None; 2];
+        let mut queued = 0;
         let mut kept_any = false;
         let mut started = 0;
         for i in 0..self.portfolio.flips.binding.len() {
@@ -380,27 +428,83 @@ where
             }
             let (_, j, r, row) = self.portfolio.flips.binding[i];
             // Every guide is read from the solution kept before the flipped starts (this solver's
-            // trajectory: the flipped starts run on the guide solver).
+            // trajectory: the flipped starts run on the guide solvers).
             let Some((t, b)) = self.guide_for(j, r, row) else {
                 continue;
             };
             let degree = self.rows.slots[j].degree;
-            self.prepare_guide(problem, degree)?;
+            self.prepare_guide(queued, problem, degree)?;
             let f = &self.portfolio.flips;
-            f.row.set(0, t, &f.a, b);
+            f.guides[queued].row.clear();
+            f.guides[queued].row.set(0, t, &f.a, b);
             started += 1;
-            kept_any |= self.guided_start(
-                problem,
-                Guided::Flip(j),
-                s.portfolio_flip_guide,
-                discarded,
-                discarded_qps,
-            )?;
+            ready[queued] = Some(Ready {
+                start: Guided::Flip(j),
+                guide_iterations: s.portfolio_flip_guide,
+            });
+            queued += 1;
+            if queued == width {
+                kept_any |= self.run_ready(problem, &mut ready, discarded, discarded_qps)?;
+                queued = 0;
+            }
         }
         if let Some(guide_iterations) = s.portfolio_mirror {
-            kept_any |= self.mirror_start(problem, guide_iterations, discarded, discarded_qps)?;
+            if self.mirror_guide(queued, problem)? {
+                ready[queued] = Some(Ready {
+                    start: Guided::Mirror,
+                    guide_iterations,
+                });
+            }
         }
+        kept_any |= self.run_ready(problem, &mut ready, discarded, discarded_qps)?;
         Ok(kept_any)
+    }
+
+    /// Runs the guided starts in `ready` (taken out; the first on the first guide solver, the
+    /// second on the second) and decides in that order whether each is kept. Two run at once on
+    /// two threads, each measured against the solution kept before them
+    /// ([`crate::Settings::portfolio_abandon`], `portfolio_stall`); where the first is kept, the
+    /// second's measure is the new kept cost, as one after the other, and it runs again with it
+    /// unless no measure applies: every start is the one-thread computation. Returns whether
+    /// either was kept.
+    fn run_ready(
+        &mut self,
+        problem: &Problem<NX, NU>,
+        ready: &mut [Option<Ready>; 2],
+        discarded: &mut usize,
+        discarded_qps: &mut crate::qp::QpStats,
+    ) -> Result<bool> {
+        let (first, second) = (ready[0].take(), ready[1].take());
+        let Some(first) = first else {
+            return Ok(false);
+        };
+        let Some(second) = second else {
+            self.run_guided(0, first, problem)?;
+            return Ok(self.keep_guided(0, first.start, discarded, discarded_qps));
+        };
+        let n = self.core.n;
+        let max_iterations = self.settings.max_iterations;
+        let beat = self.beat_for_guided();
+        let (guides, guess) = (&mut self.portfolio.flips.guides, &self.portfolio.guess[..n]);
+        let [a, b] = guides;
+        let (one, two) = std::thread::scope(|scope| {
+            let two = scope.spawn(|| guided_run(b, second, guess, max_iterations, beat, problem));
+            let one = guided_run(a, first, guess, max_iterations, beat, problem);
+            (one, two.join())
+        });
+        one?;
+        let two = match two {
+            Ok(result) => result,
+            Err(panic) => std::panic::resume_unwind(panic),
+        };
+        let kept_first = self.keep_guided(0, first.start, discarded, discarded_qps);
+        if kept_first && beat.is_some() {
+            self.run_guided(1, second, problem)?;
+        } else {
+            two?;
+        }
+        let kept_second = self.keep_guided(1, second.start, discarded, discarded_qps);
+        Ok(kept_first || kept_second)
     }
 
     /// Whether the portfolio's first two starts (the augmented Lagrangian's and the barrier's,
@@ -420,18 +524,13 @@ where
         }
     }
 
-    /// [`crate::Settings::portfolio_mirror`]: the start round the other side of the whole
-    /// cluster, one guide target per state row with a far side (each at the row's most active
-    /// time on the solution kept before the flipped starts), when two or more have one at
-    /// distinct times (the first target at a time is taken) and all of one relative degree.
-    /// Returns whether it was kept.
-    fn mirror_start(
-        &mut self,
-        problem: &Problem<NX, NU>,
-        guide_iterations: usize,
-        discarded: &mut usize,
-        discarded_qps: &mut crate::qp::QpStats,
-    ) -> Result<bool> {
+    /// [`crate::Settings::portfolio_mirror`]: the guide of the start round the other side of
+    /// the whole cluster, on guide solver `guide_slot`: one target per state row with a far
+    /// side (each at the row's most active time on the solution kept before the flipped
+    /// starts), when two or more have one at distinct times (the first target at a time is
+    /// taken) and all of one relative degree. Returns whether there is such a start.
+    fn mirror_guide(&mut self, guide_slot: usize, problem: &Problem<NX, NU>) -> Result<bool> {
+        self.portfolio.flips.guides[guide_slot].row.clear();
         let (mut count, mut degree, mut mixed_degrees) = (0, None, false);
         // `row` counts the state rows, as `Sides` does.
         let mut row = 0;
@@ -447,8 +546,9 @@ where
                 };
                 mixed_degrees |= *degree.get_or_insert(slot.degree) != slot.degree;
                 let f = &self.portfolio.flips;
-                if f.row.at(t).is_none() {
-                    f.row.set(count, t, &f.a, b);
+                let guide_row = &f.guides[guide_slot].row;
+                if guide_row.find(t).is_none() {
+                    guide_row.set(count, t, &f.a, b);
                     count += 1;
                 }
             }
@@ -456,53 +556,46 @@ where
         let degree = match degree {
             Some(d) if count >= 2 && !mixed_degrees => d,
             _ => {
-                self.portfolio.flips.row.lift();
+                self.portfolio.flips.guides[guide_slot].row.clear();
                 return Ok(false);
             }
         };
-        self.prepare_guide(problem, degree)?;
-        self.guided_start(problem, Guided::Mirror, guide_iterations, discarded, discarded_qps)
+        self.prepare_guide(guide_slot, problem, degree)?;
+        Ok(true)
     }
 
-    /// One guided start on the guide solver (its targets set): from the initial guess with the
-    /// guide for `guide_iterations`, then lifted, to its own optimum; kept when better than the
-    /// kept solution (this solver's report and `portfolio.best` then become its). Returns
-    /// whether it was kept.
-    fn guided_start(
+    /// The measure of a guided start: the kept cost, where a test of later starts applies
+    /// ([`crate::Settings::portfolio_abandon`], `portfolio_stall`).
+    fn beat_for_guided(&self) -> Option<f64> {
+        self.settings.tests_later_starts().then_some(self.report.cost)
+    }
+
+    /// Runs one guided start on guide solver `slot` (its targets set), measured against the
+    /// kept cost ([`guided_run`]).
+    fn run_guided(&mut self, slot: usize, ready: Ready, problem: &Problem<NX, NU>) -> Result<()> {
+        let n = self.core.n;
+        let max_iterations = self.settings.max_iterations;
+        let beat = self.beat_for_guided();
+        let (guides, guess) = (&mut self.portfolio.flips.guides, &self.portfolio.guess[..n]);
+        guided_run(&mut guides[slot], ready, guess, max_iterations, beat, problem)
+    }
+
+    /// Whether the guided start just run on guide solver `slot` is kept: better than the kept
+    /// solution (this solver's report and `portfolio.best` then become its). Records the start
+    /// and adds the iterations and QPs of the solution given up.
+    fn keep_guided(
         &mut self,
-        problem: &Problem<NX, NU>,
+        slot: usize,
         start: Guided,
-        guide_iterations: usize,
         discarded: &mut usize,
         discarded_qps: &mut crate::qp::QpStats,
-    ) -> Result<bool> {
+    ) -> bool {
         let n = self.core.n;
         let tol = self.settings.constraint_tolerance;
-        let f = &mut self.portfolio.flips;
-        let (_, guide) = f.guide.as_mut().expect("prepared by the caller");
-        guide.core.traj.us[..n].clone_from_slice(&self.portfolio.guess[..n]);
-        guide.forget();
-        guide.portfolio.member = Some(WarmUp::AugmentedLagrangian);
-        guide.settings.max_iterations = guide_iterations;
-        guide.solve_from_start(problem)?;
-        let guided = guide.report.iterations;
-        let guided_qps = guide.report.qp;
-        f.row.lift();
-        guide.settings.max_iterations = self.settings.max_iterations;
-        // Still the augmented Lagrangian (not the barrier of a cold portfolio start), with the
-        // guided iterations' multipliers and penalty; stopped where it crawls above the kept
-        // cost (`Settings::portfolio_stall`) or ends up well above it
-        // (`Settings::portfolio_abandon`).
-        guide.portfolio.beat = self.settings.tests_later_starts().then_some(self.report.cost);
-        guide.portfolio.guided = true;
-        let solved = guide.solve_from_start(problem);
-        guide.portfolio.guided = false;
-        solved?;
-        guide.portfolio.beat = None;
+        let Some((_, guide)) = self.portfolio.flips.guides[slot].solver.as_mut() else {
+            return false;
+        };
         let stopped = guide.portfolio.stopped.take();
-        guide.portfolio.member = None;
-        guide.report.iterations += guided;
-        guide.report.qp += guided_qps;
         let r = &guide.report;
         let keep = stopped.is_none() && better(r, &self.report, tol);
         let mut entry = StartReport {
@@ -539,17 +632,17 @@ where
             *discarded_qps += r.qp;
         }
         self.portfolio.starts.push(entry);
-        Ok(keep)
+        keep
     }
 
-    /// Builds the solver of the flipped starts when there is none or when it no longer matches
-    /// this one (settings, constraints, row layout, horizon, the guide row's degree).
-    fn prepare_guide(&mut self, problem: &Problem<NX, NU>, degree: usize) -> Result<()> {
+    /// Builds guide solver `slot` when there is none or when it no longer matches this one
+    /// (settings, constraints, row layout, horizon, the guide row's degree).
+    fn prepare_guide(&mut self, slot: usize, problem: &Problem<NX, NU>, degree: usize) -> Result<()> {
         let n = self.core.n;
         let m = self.constraints.len();
         let settings = self.settings;
-        let f = &self.portfolio.flips;
-        let matches = f.guide.as_ref().is_some_and(|(deg, s)| {
+        let g = &self.portfolio.flips.guides[slot];
+        let matches = g.solver.as_ref().is_some_and(|(deg, s)| {
             *deg == degree
                 && s.cap == self.cap
                 && s.constraints.len() == m + 1
@@ -561,7 +654,7 @@ where
         });
         if !matches {
             let mut constraints = self.constraints.clone();
-            constraints.push(self.portfolio.flips.row.clone());
+            constraints.push(g.row.clone());
             let mut slots = self.rows.slots.clone();
             let offset = slots.iter().map(|s| s.offset + s.dim).max().unwrap_or(0);
             slots.push(Slot {
@@ -571,13 +664,59 @@ where
                 degree,
             });
             let guide = Self::with_slots(problem, constraints, settings, slots, self.cap)?;
-            self.portfolio.flips.guide = Some((degree, Box::new(guide)));
+            self.portfolio.flips.guides[slot].solver = Some((degree, Box::new(guide)));
         }
-        let (_, guide) = self.portfolio.flips.guide.as_mut().expect("built above");
+        let Some((_, guide)) = self.portfolio.flips.guides[slot].solver.as_mut() else {
+            return Ok(());
+        };
         guide.set_settings(settings)?;
         if guide.core.n != n {
             guide.set_horizon(n)?;
         }
         Ok(())
     }
+}
+
+/// One guided start on `guide` (its targets set): from the initial guess `guess` with the guide
+/// for its guided iterations, then with the guide lifted to its own optimum, still the
+/// augmented Lagrangian (not the barrier of a cold portfolio start) with the guided iterations'
+/// multipliers and penalty. With a kept cost `beat` it stops where it crawls above it
+/// (`Settings::portfolio_stall`) or ends up well above it (`Settings::portfolio_abandon`); the
+/// guide solver's report and `portfolio.stopped` then tell.
+fn guided_run<NX: Dim, NU: Dim>(
+    guide: &mut Guide<NX, NU>,
+    ready: Ready,
+    guess: &[VectorN<NU>],
+    max_iterations: usize,
+    beat: Option<f64>,
+    problem: &Problem<NX, NU>,
+) -> Result<()>
+where
+    DefaultAllocator: Alloc<NX, NU>,
+{
+    let n = guess.len();
+    let Some((_, solver)) = guide.solver.as_mut() else {
+        return Ok(());
+    };
+    solver.core.traj.us[..n].clone_from_slice(guess);
+    solver.forget();
+    guide.row.steer();
+    solver.portfolio.member = Some(WarmUp::AugmentedLagrangian);
+    solver.portfolio.stopped = None;
+    solver.settings.max_iterations = ready.guide_iterations;
+    solver.solve_from_start(problem)?;
+    let guided = solver.report.iterations;
+    let guided_qps = solver.report.qp;
+    guide.row.lift();
+    solver.settings.max_iterations = max_iterations;
+    solver.portfolio.beat = beat;
+    solver.portfolio.guided = true;
+    let solved = solver.solve_from_start(problem);
+    solver.portfolio.guided = false;
+    solved?;
+    solver.portfolio.beat = None;
+    solver.portfolio.member = None;
+    solver.report.iterations += guided;
+    solver.report.qp += guided_qps;
+    Ok(())
 }

@@ -482,10 +482,7 @@ where
             self.run_guided(0, first, problem)?;
             return Ok(self.keep_guided(0, first.start, discarded, discarded_qps));
         };
-        let n = self.core.n;
-        let max_iterations = self.settings.max_iterations;
-        let beat = self.beat_for_guided();
-        let (guides, guess) = (&mut self.portfolio.flips.guides, &self.portfolio.guess[..n]);
+        let (guides, guess, max_iterations, beat) = self.guided_inputs();
         let [a, b] = guides;
         let (one, two) = std::thread::scope(|scope| {
             let two = scope.spawn(|| guided_run(b, second, guess, max_iterations, beat, problem));
@@ -498,7 +495,7 @@ where
             Err(panic) => std::panic::resume_unwind(panic),
         };
         let kept_first = self.keep_guided(0, first.start, discarded, discarded_qps);
-        if kept_first && beat.is_some() {
+        if kept_first && self.settings.tests_later_starts() {
             self.run_guided(1, second, problem)?;
         } else {
             two?;
@@ -564,19 +561,25 @@ where
         Ok(true)
     }
 
-    /// The measure of a guided start: the kept cost, where a test of later starts applies
+    /// What a guided start runs with ([`guided_run`]): the guide solvers, the initial guess,
+    /// the iteration limit, and its measure, the kept cost where a test of later starts applies
     /// ([`crate::Settings::portfolio_abandon`], `portfolio_stall`).
-    fn beat_for_guided(&self) -> Option<f64> {
-        self.settings.tests_later_starts().then_some(self.report.cost)
+    #[allow(clippy::type_complexity)]
+    fn guided_inputs(&mut self) -> (&mut [Guide<NX, NU>; 2], &[VectorN<NU>], usize, Option<f64>) {
+        let beat = self.settings.tests_later_starts().then_some(self.report.cost);
+        let p = &mut self.portfolio;
+        (
+            &mut p.flips.guides,
+            &p.guess[..self.core.n],
+            self.settings.max_iterations,
+            beat,
+        )
     }
 
     /// Runs one guided start on guide solver `slot` (its targets set), measured against the
     /// kept cost ([`guided_run`]).
     fn run_guided(&mut self, slot: usize, ready: Ready, problem: &Problem<NX, NU>) -> Result<()> {
-        let n = self.core.n;
-        let max_iterations = self.settings.max_iterations;
-        let beat = self.beat_for_guided();
-        let (guides, guess) = (&mut self.portfolio.flips.guides, &self.portfolio.guess[..n]);
+        let (guides, guess, max_iterations, beat) = self.guided_inputs();
         guided_run(&mut guides[slot], ready, guess, max_iterations, beat, problem)
     }
 

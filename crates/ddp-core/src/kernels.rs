@@ -504,6 +504,123 @@ fn cholesky_solve_body(l: &[f64], b: &mut [f64], n: usize, cols: usize) {
     }
 }
 
+/// The `L D L^T` factorisation of the symmetric positive definite `a` (lower triangle read, one
+/// entry at a time) into `f`: its strict lower triangle becomes the unit lower triangular `L`, its
+/// diagonal the pivots' reciprocals `1 / d_i`, its strict upper triangle is unspecified. `false`
+/// when a pivot is not positive (or not finite). The same factorisation as Cholesky's
+/// (`L_chol = L D^(1/2)`), without its square roots: a backward pass factors every knot's `Q_uu`
+/// on the dependency chain from one knot's value function to the next, where a square root and
+/// the division after it cost several multiplications' latency each.
+#[inline(always)]
+pub fn ldl_from<N: Dim>(a: &MatrixN<N, N>, f: &mut MatrixN<N, N>) -> bool
+where
+    DefaultAllocator: Allocator<N, N>,
+{
+    let n = a.nrows();
+    let (a, f) = (a.as_slice(), f.as_mut_slice());
+    if run_time::<N, N, N>() {
+        let mut ok = false;
+        small(LdlK { a, f, ok: &mut ok }, n, 1, 1);
+        ok
+    } else {
+        ldl_body(a, f, n)
+    }
+}
+
+#[inline(always)]
+fn ldl_body(a: &[f64], f: &mut [f64], n: usize) -> bool {
+    // Column-major: L(i, k) = f[k n + i]. The pivots `d_k` themselves on the stack (past
+    // `RECIPROCALS`, `1 / (1 / d_k)` again: a deterministic value all the same).
+    let (a, f) = (&a[..n * n], &mut f[..n * n]);
+    let mut table = [0.0; RECIPROCALS];
+    let tabled = n <= RECIPROCALS;
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            let l = f[k * n + j];
+            let dk = if tabled { table[k] } else { 1.0 / f[k * n + k] };
+            d -= l * l * dk;
+        }
+        // Not positive definite, or NaN / inf: `d > 0` fails for NaN.
+        if d.is_nan() || d <= 0.0 || d.is_infinite() {
+            return false;
+        }
+        let r = 1.0 / d;
+        if tabled {
+            table[j] = d;
+        }
+        f[j * n + j] = r;
+        for i in j + 1..n {
+            let mut s = a[j * n + i];
+            for k in 0..j {
+                let dk = if tabled { table[k] } else { 1.0 / f[k * n + k] };
+                s -= f[k * n + i] * f[k * n + j] * dk;
+            }
+            f[j * n + i] = s * r;
+        }
+    }
+    true
+}
+
+/// Solves `L D L^T X = B` in place (`f` from [`ldl_from`]), for every column of `b`.
+#[inline(always)]
+pub fn ldl_solve_in_place<N: Dim, C: Dim>(f: &MatrixN<N, N>, b: &mut MatrixN<N, C>)
+where
+    DefaultAllocator: Allocator<N, N> + Allocator<N, C>,
+{
+    let (n, cols) = (f.nrows(), b.ncols());
+    let (f, b) = (f.as_slice(), b.as_mut_slice());
+    if run_time::<N, C, N>() {
+        small(LdlSolve { f, b }, n, cols, 1)
+    } else {
+        ldl_solve_body(f, b, n, cols)
+    }
+}
+
+#[inline(always)]
+fn ldl_solve_body(f: &[f64], b: &mut [f64], n: usize, cols: usize) {
+    let (f, b) = (&f[..n * n], &mut b[..n * cols]);
+    for c in 0..cols {
+        let x = &mut b[c * n..(c + 1) * n];
+        // Forward: L y = b (unit diagonal).
+        for i in 1..n {
+            let mut s = x[i];
+            for k in 0..i {
+                s -= f[k * n + i] * x[k];
+            }
+            x[i] = s;
+        }
+        // D z = y, then backward: L^T x = z.
+        for i in (0..n).rev() {
+            let mut s = x[i] * f[i * n + i];
+            for k in i + 1..n {
+                s -= f[i * n + k] * x[k];
+            }
+            x[i] = s;
+        }
+    }
+}
+
+kernel!(LdlSolve<'a> { f: &'a [f64], b: &'a mut [f64] } => ldl_solve_body(2));
+
+/// The `L D L^T` factorisation as a [`Kernel`] (its result through `ok`).
+struct LdlK<'a> {
+    a: &'a [f64],
+    f: &'a mut [f64],
+    ok: &'a mut bool,
+}
+
+impl Kernel for LdlK<'_> {
+    #[inline(always)]
+    fn call<const A: usize, const B: usize, const C: usize>(self) {
+        *self.ok = ldl_body(self.a, self.f, A);
+    }
+    #[inline(always)]
+    fn call_any(self, a: usize, _b: usize, _c: usize) {
+        *self.ok = ldl_body(self.a, self.f, a);
+    }
+}
+
 kernel!(TrMulAdd<'a> { o: &'a mut [f64], c: Option<&'a [f64]>, a: &'a [f64], b: &'a [f64] } => tr_mul_add_body(3));
 kernel!(MulTo<'a> { o: &'a mut [f64], a: &'a [f64], b: &'a [f64] } => mul_to_body(3));
 kernel!(MulVecAdd<'a> { o: &'a mut [f64], c: Option<&'a [f64]>, a: &'a [f64], x: &'a [f64] } => mul_vec_add_body(2));
@@ -628,5 +745,69 @@ mod tests {
         assert!(!cholesky_from(&indefinite, &mut Matrix::<2, 2>::zeros()));
         let nan = Matrix::<2, 2>::new(f64::NAN, 0.0, 0.0, 1.0);
         assert!(!cholesky_from(&nan, &mut Matrix::<2, 2>::zeros()));
+    }
+
+    /// `L D L^T` against nalgebra's Cholesky solve, at compile-time and run-time sizes (the sizes
+    /// `small` unrolls and one past them, 20, past the stack table of pivots), and its
+    /// factors against the Cholesky factor: `L_chol = L D^(1/2)`.
+    #[test]
+    fn ldl_solves_as_cholesky_and_rejects_what_is_not_positive_definite() {
+        for n in [1usize, 2, 3, 4, 6, 7, 20] {
+            let m = DMatrix::from_fn(n, n, |i, j| ((i * n + j) as f64 * 0.53).sin());
+            let h = &m * m.transpose() + DMatrix::identity(n, n) * 0.1;
+            let rhs = DMatrix::from_fn(n, 3, |i, j| (i as f64) * 0.5 - 2.0 * j as f64 + 1.0);
+            let mut f = DMatrix::from_element(n, n, f64::NAN);
+            assert!(ldl_from(&h, &mut f), "n = {n}");
+            let mut x = rhs.clone();
+            ldl_solve_in_place(&f, &mut x);
+            let expected = h.clone().cholesky().unwrap().solve(&rhs);
+            let scale = 1.0 + expected.amax();
+            assert!(
+                (&x - &expected).amax() < 1e-10 * scale,
+                "n = {n}: {}",
+                (&x - &expected).amax()
+            );
+            let mut l = h.clone();
+            assert!(cholesky_in_place(&mut l));
+            for j in 0..n {
+                let d = 1.0 / f[(j, j)];
+                assert!(
+                    (l[(j, j)] - d.sqrt()).abs() < 1e-12 * (1.0 + d.sqrt()),
+                    "pivot {j} of n = {n}"
+                );
+                for i in j + 1..n {
+                    assert!(
+                        (l[(i, j)] - f[(i, j)] * d.sqrt()).abs() < 1e-10,
+                        "L({i}, {j}) of n = {n}"
+                    );
+                }
+            }
+        }
+        // Compile-time sizes: the same values as the run-time path, bit for bit.
+        let m = Matrix::<4, 4>::from_fn(|i, j| ((i * 4 + j) as f64 * 0.31).cos());
+        let h = m * m.transpose() + Matrix::<4, 4>::identity();
+        let mut f = Matrix::<4, 4>::zeros();
+        assert!(ldl_from(&h, &mut f));
+        let mut fd = DMatrix::zeros(4, 4);
+        assert!(ldl_from(&DMatrix::from_column_slice(4, 4, h.as_slice()), &mut fd));
+        let mut v = Vector::<4>::new(1.0, -2.0, 0.5, 3.0);
+        let mut vd = DVector::from_column_slice(v.as_slice());
+        ldl_solve_in_place(&f, &mut v);
+        ldl_solve_in_place(&fd, &mut vd);
+        for i in 0..4 {
+            assert_eq!(v[i].to_bits(), vd[i].to_bits(), "x[{i}]");
+            for j in 0..=i {
+                assert_eq!(f[(i, j)].to_bits(), fd[(i, j)].to_bits(), "f({i}, {j})");
+            }
+        }
+        assert!((h * v - Vector::<4>::new(1.0, -2.0, 0.5, 3.0)).amax() < 1e-12);
+        let indefinite = Matrix::<2, 2>::new(1.0, 2.0, 2.0, 1.0);
+        assert!(!ldl_from(&indefinite, &mut Matrix::<2, 2>::zeros()));
+        let singular = Matrix::<2, 2>::new(1.0, 1.0, 1.0, 1.0);
+        assert!(!ldl_from(&singular, &mut Matrix::<2, 2>::zeros()));
+        let nan = Matrix::<2, 2>::new(f64::NAN, 0.0, 0.0, 1.0);
+        assert!(!ldl_from(&nan, &mut Matrix::<2, 2>::zeros()));
+        let inf = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, f64::INFINITY]);
+        assert!(!ldl_from(&inf, &mut DMatrix::zeros(2, 2)));
     }
 }

@@ -403,9 +403,9 @@ fn a_start_that_cannot_reach_the_kept_cost_stops() {
 }
 
 /// Problem 59 of the car family, seed 2 (`bench/results/family_s2_210_funnel.json`): the
-/// augmented Lagrangian's start is kept at 0.625 (0.3 % above FATROP's optimum); the flipped
-/// start of the second obstacle and the mirrored start wander for 266 and 210 iterations to
-/// feasible paths at 314 and 12.5.
+/// augmented Lagrangian's start is kept at 0.625 (0.3 % above FATROP's optimum); without the
+/// rule, the flipped start of the second obstacle and the mirrored start wander for 177 and 146
+/// iterations (stalled at 54.0, and ending infeasible at 380).
 const CAR_S2_I59: &str = r#"{"name": "car-s2-i59-a0", "model": "car", "dt": 0.0788, "N": 127, "x0": [0.0, 0.0, 1.6259, 0.0], "cost": {"kind": "quad_goal", "x_goal": [0.7759, 2.8412, 1.5856, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[0.5185, 1.3928, 0.252], [0.2654, 2.0295, 0.3508], [0.6359, 1.7408, 0.3], [0.939, 2.1961, 0.3666], [0.6364, 1.4168, 0.455]]}"#;
 
 #[test]
@@ -427,7 +427,7 @@ fn a_start_feasible_far_above_the_kept_cost_is_abandoned() {
     assert_eq!(stop.cost.to_bits(), run_on.cost.to_bits());
     assert_eq!(stop.iterations, run_on.iterations);
     assert!(
-        stop.discarded_iterations + 200 < run_on.discarded_iterations,
+        stop.discarded_iterations + 100 < run_on.discarded_iterations,
         "{} against {}",
         stop.discarded_iterations,
         run_on.discarded_iterations

@@ -24,8 +24,8 @@ use crate::boxqp::{box_qp, BoxQp};
 use crate::dims::{Alloc, DefaultAllocator, Dim, Dims, MatrixN, VectorN};
 use crate::error::{check_finite, Error};
 use crate::kernels::{
-    add_to, cholesky_from, cholesky_in_place, cholesky_solve_in_place, copy, mul_to, mul_vec_add, negate,
-    sym_tr_mul2_add, sym_tr_mul_add, tr_mul_add, tr_mul_vec_add,
+    add_to, cholesky_in_place, cholesky_solve_in_place, copy, ldl_from, ldl_solve_in_place, mul_to, mul_vec_add,
+    negate, sym_tr_mul2_add, sym_tr_mul_add, tr_mul_add, tr_mul_vec_add,
 };
 use crate::solver::settings::{LineSearchSettings, Method, Regularization, RegularizationSettings, Shooting};
 use crate::solver::shooting::MultipleShooting;
@@ -387,8 +387,9 @@ where
     pub q_uu_r: MatrixN<NU, NU>,
     /// Regularised `Q_ux`.
     pub q_ux_r: MatrixN<NU, NX>,
-    /// Scratch for a gains step: the Cholesky factor of `q_uu_r` after [`QBlocks::factor`].
-    pub chol: MatrixN<NU, NU>,
+    /// Scratch for a gains step: the `L D L^T` factors of `q_uu_r` after [`QBlocks::factor`]
+    /// ([`crate::kernels::ldl_from`]; solve with [`QBlocks::solve`]).
+    pub ldl: MatrixN<NU, NU>,
     /// Scratch for a gains step (`NU`).
     pub t_u: VectorN<NU>,
     /// Scratch for a gains step (`NU x NX`).
@@ -424,7 +425,7 @@ where
             q_ux: dims.ux_zeros(),
             q_uu_r: dims.uu_zeros(),
             q_ux_r: dims.ux_zeros(),
-            chol: dims.uu_zeros(),
+            ldl: dims.uu_zeros(),
             t_u: dims.u_zeros(),
             t_ux: dims.ux_zeros(),
             t_x: dims.x_zeros(),
@@ -443,14 +444,23 @@ where
         }
     }
 
-    /// Factors `q_uu_r` into `chol` (lower triangle); `Err` when not positive definite.
+    /// Factors `q_uu_r` into `ldl` (`L D L^T`); `Err` when not positive definite.
     #[inline(always)]
     pub fn factor(&mut self) -> Result<(), NotPositiveDefinite> {
-        if cholesky_from(&self.q_uu_r, &mut self.chol) {
+        if ldl_from(&self.q_uu_r, &mut self.ldl) {
             Ok(())
         } else {
             Err(NotPositiveDefinite)
         }
+    }
+
+    /// `b <- Q_uu^-1 b` (regularised) after [`QBlocks::factor`], for every column of `b`.
+    #[inline(always)]
+    pub fn solve<C: Dim>(&self, b: &mut MatrixN<NU, C>)
+    where
+        DefaultAllocator: nalgebra::allocator::Allocator<NU, C>,
+    {
+        ldl_solve_in_place(&self.ldl, b);
     }
 
     /// The unconstrained Newton step after [`QBlocks::factor`]: `k = -Q_uu^-1 Q_u`,
@@ -458,10 +468,10 @@ where
     #[inline(always)]
     pub fn newton_step(&self, k_ff: &mut VectorN<NU>, k_fb: &mut MatrixN<NU, NX>) {
         copy(k_ff, &self.q_u);
-        cholesky_solve_in_place(&self.chol, k_ff);
+        self.solve(k_ff);
         negate(k_ff);
         copy(k_fb, &self.q_ux_r);
-        cholesky_solve_in_place(&self.chol, k_fb);
+        self.solve(k_fb);
         negate(k_fb);
     }
 }
@@ -627,7 +637,7 @@ where
         }
         q.factor()?;
         k_fb.copy_from(&q.q_ux_r);
-        cholesky_solve_in_place(&q.chol, k_fb);
+        q.solve(k_fb);
         k_fb.neg_mut();
         k_ff.fill(0.0);
         Ok(GainsInfo {

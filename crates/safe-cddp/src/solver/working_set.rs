@@ -130,9 +130,9 @@ where
         q.factor()?;
         let w = &mut *self.kkt;
         copy(&mut w.qi_qu, &q.q_u);
-        cholesky_solve_in_place(&q.chol, &mut w.qi_qu);
+        q.solve(&mut w.qi_qu);
         copy(&mut w.qi_qux, &q.q_ux_r);
-        cholesky_solve_in_place(&q.chol, &mut w.qi_qux);
+        q.solve(&mut w.qi_qux);
         self.active_set(k);
         let mw = self.working_set(k, q);
         let mw = self.kkt_solution(mw, k_ff, k_fb)?;
@@ -218,7 +218,7 @@ where
             let i = w.cand[c].1;
             let ci = &rows.c[base + i];
             copy(&mut w.hci, ci);
-            cholesky_solve_in_place(&q.chol, &mut w.hci);
+            q.solve(&mut w.hci);
             let norm = ci.dot(&w.hci);
             if norm.is_nan() || norm <= 1e-14 * (1.0 + q_scale) {
                 continue; // the controls of this knot cannot move this row

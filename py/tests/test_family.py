@@ -274,9 +274,10 @@ def test_a_mirrored_start_goes_round_the_other_side_of_a_whole_cluster() -> None
 
 def test_a_start_feasible_far_above_the_kept_cost_is_abandoned() -> None:
     # car-s2-i59-a0 (bench/results/family_s2_210_funnel.json): the augmented Lagrangian's start
-    # is kept; the flipped start of the second obstacle and the mirrored start wander for 266 and
-    # 210 iterations to feasible paths at 500x and 20x its cost. With `portfolio_abandon` (the
-    # default, 0.3 after 45 iterations) they stop once feasible more than 30 % above it.
+    # is kept; without the rule the flipped start of the second obstacle and the mirrored start
+    # wander for 177 and 146 iterations (stalled at 86x its cost, and ending infeasible). With
+    # `portfolio_abandon` (the default, 0.3 after 45 iterations) they stop once feasible more
+    # than 30 % above it, after 106 and 89.
     import pickle
 
     import ddpkit
@@ -293,7 +294,7 @@ def test_a_start_feasible_far_above_the_kept_cost_is_abandoned() -> None:
     off = solve.DdpkitSolver(p, safe_options=no).constrained.solve()
     # The same solution, bit for bit, with fewer discarded iterations.
     assert on.cost == off.cost and on.iterations == off.iterations
-    assert on.discarded_iterations + 200 < off.discarded_iterations
+    assert on.discarded_iterations + 100 < off.discarded_iterations
     abandoned = [st for st in on.starts if st["outcome"] == "abandoned"]
     assert abandoned and all(st["flip"] is not None or st["mirror"] for st in abandoned)
     assert all(st["cost"] > 1.3 * on.cost and st["max_violation"] <= 1e-8 for st in abandoned)

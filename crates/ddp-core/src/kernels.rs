@@ -368,64 +368,20 @@ where
     let l = a.as_mut_slice();
     if run_time::<N, N, N>() {
         let mut ok = false;
-        small(
-            CholeskyK {
-                a: None,
-                l,
-                ok: &mut ok,
-            },
-            n,
-            1,
-            1,
-        );
+        small(CholeskyK { l, ok: &mut ok }, n, 1, 1);
         ok
     } else {
-        cholesky_body(None, l, n)
+        cholesky_body(l, n)
     }
 }
 
-/// [`cholesky_in_place`] into `l` from `a` (which is left as it is): the lower triangle of `l`
-/// becomes `L`, its strict upper triangle is unspecified. `a` is read one entry at a time: where
-/// `a` was just written entry by entry (a regularised `Q_uu`), copying it first with wide loads
-/// stalls on store forwarding.
+/// The factorisation's loops, in place.
 #[inline(always)]
-pub fn cholesky_from<N: Dim>(a: &MatrixN<N, N>, l: &mut MatrixN<N, N>) -> bool
-where
-    DefaultAllocator: Allocator<N, N>,
-{
-    let n = a.nrows();
-    let (a, l) = (a.as_slice(), l.as_mut_slice());
-    if run_time::<N, N, N>() {
-        let mut ok = false;
-        small(
-            CholeskyK {
-                a: Some(a),
-                l,
-                ok: &mut ok,
-            },
-            n,
-            1,
-            1,
-        );
-        ok
-    } else {
-        cholesky_body(Some(a), l, n)
-    }
-}
-
-/// The factorisation's loops: of `l` in place (`a = None`), or into `l` from `a`, whose entries
-/// are read where the in-place form reads the not yet overwritten ones (the match on `a` folds
-/// away where the call is inlined).
-#[inline(always)]
-fn cholesky_body(a: Option<&[f64]>, l: &mut [f64], n: usize) -> bool {
+fn cholesky_body(l: &mut [f64], n: usize) -> bool {
     // Column-major storage: L(i, k) = l[k n + i].
     let l = &mut l[..n * n];
-    let a = a.map(|a| &a[..n * n]);
     for j in 0..n {
-        let mut d = match a {
-            Some(a) => a[j * n + j],
-            None => l[j * n + j],
-        };
+        let mut d = l[j * n + j];
         for k in 0..j {
             d -= l[k * n + j] * l[k * n + j];
         }
@@ -437,10 +393,7 @@ fn cholesky_body(a: Option<&[f64]>, l: &mut [f64], n: usize) -> bool {
         l[j * n + j] = d;
         let r = 1.0 / d;
         for i in j + 1..n {
-            let mut s = match a {
-                Some(a) => a[j * n + i],
-                None => l[j * n + i],
-            };
+            let mut s = l[j * n + i];
             for k in 0..j {
                 s -= l[k * n + i] * l[k * n + j];
             }
@@ -629,9 +582,8 @@ kernel!(SymTrMulAdd<'a> { o: &'a mut [f64], c: &'a [f64], a: &'a [f64], b: &'a [
 kernel!(SymTrMul2Add<'a> { o: &'a mut [f64], c: &'a [f64], m: [&'a [f64]; 4] } => sym_tr_mul2_add_body(2));
 kernel!(CholeskySolve<'a> { l: &'a [f64], b: &'a mut [f64] } => cholesky_solve_body(2));
 
-/// The Cholesky factorisation as a [`Kernel`] (in place, or from `a`; its result through `ok`).
+/// The Cholesky factorisation as a [`Kernel`] (in place; its result through `ok`).
 struct CholeskyK<'a> {
-    a: Option<&'a [f64]>,
     l: &'a mut [f64],
     ok: &'a mut bool,
 }
@@ -639,11 +591,11 @@ struct CholeskyK<'a> {
 impl Kernel for CholeskyK<'_> {
     #[inline(always)]
     fn call<const A: usize, const B: usize, const C: usize>(self) {
-        *self.ok = cholesky_body(self.a, self.l, A);
+        *self.ok = cholesky_body(self.l, A);
     }
     #[inline(always)]
     fn call_any(self, a: usize, _b: usize, _c: usize) {
-        *self.ok = cholesky_body(self.a, self.l, a);
+        *self.ok = cholesky_body(self.l, a);
     }
 }
 
@@ -712,39 +664,8 @@ mod tests {
         assert!((&h * v - DVector::from_element(6, 1.0)).amax() < 1e-12);
         let mut indefinite = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
         assert!(!cholesky_in_place(&mut indefinite));
-    }
-
-    #[test]
-    fn cholesky_from_equals_in_place_on_the_lower_triangle() {
-        let m = Matrix::<4, 4>::from_fn(|i, j| ((i * 4 + j) as f64 * 0.53).sin());
-        let h = m * m.transpose() + Matrix::<4, 4>::identity();
-        let mut in_place = h;
-        assert!(cholesky_in_place(&mut in_place));
-        let mut from = Matrix::<4, 4>::from_element(f64::NAN);
-        assert!(cholesky_from(&h, &mut from));
-        for j in 0..4 {
-            for i in j..4 {
-                assert_eq!(from[(i, j)].to_bits(), in_place[(i, j)].to_bits(), "L({i}, {j})");
-            }
-        }
-        let dynamic = DMatrix::from_column_slice(4, 4, h.as_slice());
-        let mut l = DMatrix::zeros(4, 4);
-        assert!(cholesky_from(&dynamic, &mut l));
-        for j in 0..4 {
-            for i in j..4 {
-                assert_eq!(l[(i, j)].to_bits(), in_place[(i, j)].to_bits(), "run-time L({i}, {j})");
-            }
-        }
-        // Past the sizes `small` unrolls (1-4, 6): the run-time loops.
-        let m7 = DMatrix::from_fn(7, 7, |i, j| ((i * 7 + j) as f64 * 0.29).cos());
-        let h7 = &m7 * m7.transpose() + DMatrix::identity(7, 7);
-        let (mut l7, mut in_place7) = (DMatrix::zeros(7, 7), h7.clone());
-        assert!(cholesky_from(&h7, &mut l7) && cholesky_in_place(&mut in_place7));
-        assert!((l7.lower_triangle() - in_place7.lower_triangle()).amax() == 0.0);
-        let indefinite = Matrix::<2, 2>::new(1.0, 2.0, 2.0, 1.0);
-        assert!(!cholesky_from(&indefinite, &mut Matrix::<2, 2>::zeros()));
-        let nan = Matrix::<2, 2>::new(f64::NAN, 0.0, 0.0, 1.0);
-        assert!(!cholesky_from(&nan, &mut Matrix::<2, 2>::zeros()));
+        let mut nan = Matrix::<2, 2>::new(f64::NAN, 0.0, 0.0, 1.0);
+        assert!(!cholesky_in_place(&mut nan));
     }
 
     /// `L D L^T` against nalgebra's Cholesky solve, at compile-time and run-time sizes (the sizes

@@ -20,7 +20,7 @@
 //! the augmented Lagrangian, `KKT_STEP_MIN` `kkt_step_min`, `MAX_IT` `max_iterations` (`family.py`
 //! solves with 500, the library's default is 200), `STALL` `portfolio_stall`, `ABANDON`, `ABANDON_AFTER` `portfolio_abandon` (0: none), `portfolio_abandon_after`, `EPS` `active_threshold`, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
 //! `al_inner_progress`, `al_inner_progress_below`, `NEAR_MARGIN`, `NEAR_RHO` `al_near_margin`,
-//! `al_near_rho`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `BARRIER_MU`, `BARRIER_FACTOR`,
+//! `al_near_rho`, `NEAR_CRAWL`, `NEAR_CRAWL_CHANGE` `al_near_crawl`, `al_near_crawl_change`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `BARRIER_MU`, `BARRIER_FACTOR`,
 //! `BARRIER_FINAL`, `BARRIER_INNER`, `BARRIER_RELAX` the homotopy's `barrier_mu_init`, `barrier_mu_factor`, `barrier_mu_final`,
 //! `barrier_inner_iterations`, `barrier_relaxation`; `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
 //! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES`, `STARTS` print
@@ -105,6 +105,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("APART") {
         s.portfolio_apart = v;
+    }
+    if let Some(v) = env("NEAR_CRAWL") {
+        s.al_near_crawl = v as usize;
+    }
+    if let Some(v) = env("NEAR_CRAWL_CHANGE") {
+        s.al_near_crawl_change = v;
     }
     if let Some(v) = env("AL_RHO_MAX") {
         s.al_rho_max = v;

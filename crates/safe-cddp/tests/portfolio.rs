@@ -664,6 +664,54 @@ fn rows_near_their_boundary_get_curvature_at_a_high_penalty() {
     );
 }
 
+/// Problem 40 of the car family, seed 1 (`bench/results/family_s1_210_abandon.json`): after its
+/// homotopy the barrier start's augmented Lagrangian holds a row just inside its boundary with
+/// the near-boundary curvature (no multiplier) and crawls along it.
+const CAR_S1_I40: &str = r#"{"name": "car-s1-i40-a0", "model": "car", "dt": 0.0798, "N": 155, "x0": [0.0, 0.0, -0.9678, 0.0], "cost": {"kind": "quad_goal", "x_goal": [2.8582, -2.0886, -0.3893, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "u_min": [-0.4221, -0.8031], "u_max": [0.4221, 0.8031], "obstacles": [[1.928, -1.8048, 0.3909], [0.8152, -0.9959, 0.4099], [0.8956, -0.2295, 0.4491], [0.3423, -0.3135, 0.2948]]}"#;
+
+#[test]
+fn a_crawl_along_a_row_held_off_its_boundary_turns_the_near_curvature_off() {
+    let solve = |al_near_crawl: usize| {
+        let settings = Settings {
+            warm_up: WarmUp::Barrier,
+            max_iterations: 500,
+            al_near_crawl,
+            ..Settings::default()
+        };
+        solve_json(CAR_S1_I40, settings)
+    };
+    let crawl = solve(0);
+    let off = solve(Settings::default().al_near_crawl);
+    // With the curvature throughout, full steps that lower the cost by about 4e-7 each run to
+    // the iteration limit (494 iterations)...
+    assert_eq!(crawl.status, Status::MaxIterations);
+    assert!(crawl.iterations >= 450, "{} iterations", crawl.iterations);
+    assert!(crawl.max_violation <= 1e-6, "{}", crawl.max_violation);
+    // ...without it after five of them, the row gets its multiplier and the solve converges
+    // (100 iterations) next to where the crawl stopped (0.510760 against 0.510589).
+    assert_eq!(off.status, Status::Converged);
+    assert!(off.iterations <= 200, "{} iterations", off.iterations);
+    assert!(off.max_violation <= 1e-6, "{}", off.max_violation);
+    assert!(
+        (off.cost - crawl.cost).abs() <= 1e-3 * crawl.cost,
+        "{} against {}",
+        off.cost,
+        crawl.cost
+    );
+}
+
+#[test]
+fn a_negative_crawl_change_is_rejected_by_name() {
+    for bad in [-1.0, f64::NAN, f64::INFINITY] {
+        let settings = Settings {
+            al_near_crawl_change: bad,
+            ..Settings::default()
+        };
+        let err = settings.validate().unwrap_err().to_string();
+        assert!(err.contains("al_near_crawl_change"), "{err}");
+    }
+}
+
 /// `Settings::kkt_step_min`. P3's augmented-Lagrangian start hands over to the KKT/QP iterations
 /// at a feasible trajectory 11 % above the optimum; there the QP steps are short (1/8 down to
 /// 1/512, each line search a QP at every knot) and the line search then fails anyway, and the

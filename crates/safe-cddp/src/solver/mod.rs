@@ -1061,6 +1061,8 @@ where
         self.warm.kkt_failed = false;
         self.warm.handed_over = false;
         self.warm.homotopy_ended = false;
+        self.warm.crawl = 0;
+        self.warm.near_off = false;
         self.refresh_merit();
         self.core.reg.reset(&s.regularization);
         self.it.trust = s.trust_region;
@@ -1323,6 +1325,16 @@ where
             // start or after a failed KKT/QP step) when a full step moved it less than the next
             // multiplier update will (`al_inner_progress`).
             let v = self.it.violation_max;
+            // A crawl along rows held just inside their boundary (`Settings::al_near_crawl`).
+            if s.al_near_crawl > 0 && !self.warm.barrier {
+                let crawling = alpha == 1.0
+                    && v <= s.constraint_tolerance
+                    && change.abs() < s.al_near_crawl_change * (1.0 + self.it.merit.abs());
+                self.warm.crawl = if crawling { self.warm.crawl + 1 } else { 0 };
+                if self.warm.crawl >= s.al_near_crawl {
+                    self.warm.near_off = true;
+                }
+            }
             let inner_done = change.abs() < s.al_inner_tolerance * (1.0 + self.it.merit.abs())
                 || (!self.warm.barrier
                     && (self.warm.from_cold || self.warm.kkt_failed)

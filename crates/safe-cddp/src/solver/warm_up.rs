@@ -64,6 +64,12 @@ pub(crate) struct WarmUpState {
     /// The barrier homotopy has just ended (set by its last `mu` update, taken by the solve
     /// loop: [`crate::Settings::portfolio_new_side`]).
     pub homotopy_ended: bool,
+    /// Consecutive crawling steps of the augmented Lagrangian: full, at a feasible trajectory,
+    /// the merit all but unchanged ([`crate::Settings::al_near_crawl`]).
+    pub crawl: usize,
+    /// Such a crawl has turned [`crate::Settings::al_near_margin`]'s curvature off for the rest
+    /// of the solve.
+    pub near_off: bool,
 }
 
 impl WarmUpState {
@@ -84,6 +90,8 @@ impl WarmUpState {
             cold: true,
             funnel: f64::INFINITY,
             homotopy_ended: false,
+            crawl: 0,
+            near_off: false,
         }
     }
 }
@@ -288,7 +296,8 @@ where
         let near = !barrier
             && (self.warm.from_cold || self.warm.kkt_failed)
             && s_near_margin > 0.0
-            && self.warm.rho >= self.settings.al_near_rho;
+            && self.warm.rho >= self.settings.al_near_rho
+            && !self.warm.near_off;
         let rows = &mut self.rows;
         let lin = &mut self.core.lin;
         let (xs, us) = (&self.core.traj.xs, &self.core.traj.us);

@@ -355,8 +355,8 @@ fn a_solver_set_to_a_shorter_horizon_runs_no_flipped_starts() {
 /// start of the first obstacle ends its homotopy on another optimum, 1.1 % above the kept one,
 /// and then crawls along an obstacle's edge for 135 iterations (to the iteration limit at the
 /// gradient test of 1e-12), lowering its cost by about 1e-7 a step, where the near-boundary
-/// curvature stays on (`al_near_crawl = 0`; by default the crawl ends after five steps with
-/// the curvature, and the start converges below the kept cost's reach on its own).
+/// curvature stays on (`al_near_crawl = 0`; by default five such steps turn it off and the
+/// start converges instead).
 const CAR_S2_I52: &str = r#"{"name": "car-s2-i52-a0", "model": "car", "dt": 0.0665, "N": 149, "x0": [0.0, 0.0, 1.7076, 0.0], "cost": {"kind": "quad_goal", "x_goal": [0.8526, 3.5608, 1.3077, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "u_min": [-0.5645, -0.4741], "u_max": [0.5645, 0.4741], "obstacles": [[0.8203, 2.8748, 0.2799], [0.1317, 2.0468, 0.3545], [1.0913, 2.9263, 0.4161]]}"#;
 
 #[test]

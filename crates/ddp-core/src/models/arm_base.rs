@@ -1,5 +1,6 @@
 //! Planar free-floating base (a small satellite) carrying a 2-link arm.
 
+use super::sin_cos;
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Error, Matrix, Result, Vector};
 use nalgebra::{U10, U5};
@@ -171,7 +172,7 @@ impl ArmBase {
         let model = Self {
             params,
             m_total,
-            mount_dir: beta.sin_cos(),
+            mount_dir: sin_cos(beta),
             a,
             l,
             ls,
@@ -407,7 +408,7 @@ impl ArmBase {
     /// Corners of the rectangular base in the world frame, counter-clockwise from the body's
     /// (+x, +y) corner.
     pub fn base_corners(&self, x: &Vector<10>) -> [[f64; 2]; 4] {
-        let (s, c) = x[2].sin_cos();
+        let (s, c) = sin_cos(x[2]);
         let [w, h] = self.params.base_size;
         [
             (0.5 * w, 0.5 * h),

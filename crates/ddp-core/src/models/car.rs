@@ -1,5 +1,6 @@
 //! Kinematic car with a speed state.
 
+use super::sin_cos;
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 use nalgebra::{U2, U4};
@@ -79,7 +80,7 @@ impl Default for Car {
 impl Dynamics<U4, U2> for Car {
     #[inline]
     fn step(&self, x: &Vector<4>, u: &Vector<2>) -> Vector<4> {
-        self.step_at(x[2].sin_cos(), x, u)
+        self.step_at(sin_cos(x[2]), x, u)
     }
 
     #[inline]
@@ -89,7 +90,7 @@ impl Dynamics<U4, U2> for Car {
 
     #[inline]
     fn jacobians(&self, x: &Vector<4>, _u: &Vector<2>, fx: &mut Matrix<4, 4>, fu: &mut Matrix<4, 2>) {
-        self.jacobians_at(x[2].sin_cos(), x, fx, fu);
+        self.jacobians_at(sin_cos(x[2]), x, fx, fu);
     }
 
     #[inline]
@@ -142,7 +143,7 @@ impl Dynamics<U4, U2> for Car {
         _h_ux: &mut Matrix<2, 4>,
         _h_uu: &mut Matrix<2, 2>,
     ) {
-        self.second_order_at(x[2].sin_cos(), x, lambda, h_xx);
+        self.second_order_at(sin_cos(x[2]), x, lambda, h_xx);
     }
 }
 

@@ -1,5 +1,6 @@
 //! Differential-drive robot commanded by its wheel speeds.
 
+use super::sin_cos;
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 use nalgebra::{U2, U3};
@@ -73,7 +74,7 @@ impl Dynamics<U3, U2> for DifferentialDrive {
     fn step(&self, x: &Vector<3>, u: &Vector<2>) -> Vector<3> {
         let dt = self.dt;
         let (v, omega) = self.body_twist(u);
-        let (s, c) = (x[2] + 0.5 * dt * omega).sin_cos();
+        let (s, c) = sin_cos(x[2] + 0.5 * dt * omega);
         Vector::<3>::new(x[0] + dt * v * c, x[1] + dt * v * s, x[2] + dt * omega)
     }
 
@@ -81,7 +82,7 @@ impl Dynamics<U3, U2> for DifferentialDrive {
     fn jacobians(&self, x: &Vector<3>, u: &Vector<2>, fx: &mut Matrix<3, 3>, fu: &mut Matrix<3, 2>) {
         let dt = self.dt;
         let (v, omega) = self.body_twist(u);
-        let (s, c) = (x[2] + 0.5 * dt * omega).sin_cos();
+        let (s, c) = sin_cos(x[2] + 0.5 * dt * omega);
         // d(heading)/d(v_r) = -d(heading)/d(v_l) = dt / (2 b); d v / d v_{l,r} = 1/2.
         let psi_r = 0.5 * dt / self.track_width;
         super::set_identity(fx);
@@ -114,7 +115,7 @@ impl Dynamics<U3, U2> for DifferentialDrive {
         // L_pp dpsi dpsi' + L_pv (dpsi dv' + dv dpsi').
         let dt = self.dt;
         let (v, omega) = self.body_twist(u);
-        let (s, c) = (x[2] + 0.5 * dt * omega).sin_cos();
+        let (s, c) = sin_cos(x[2] + 0.5 * dt * omega);
         let l_pp = -dt * v * (lambda[0] * c + lambda[1] * s);
         let l_pv = dt * (lambda[1] * c - lambda[0] * s);
         let psi_r = 0.5 * dt / self.track_width;

@@ -1,5 +1,6 @@
 //! Rigid-body quadrotor with ZYX Euler angles.
 
+use super::sin_cos;
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 use nalgebra::{U12, U4};
@@ -132,9 +133,9 @@ struct Trig {
 impl Trig {
     #[inline]
     fn new(x: &Vector<12>) -> Self {
-        let (sf, cf) = x[3].sin_cos();
-        let (st, ct) = x[4].sin_cos();
-        let (sp, cp) = x[5].sin_cos();
+        let (sf, cf) = sin_cos(x[3]);
+        let (st, ct) = sin_cos(x[4]);
+        let (sp, cp) = sin_cos(x[5]);
         Self { sf, cf, st, ct, sp, cp }
     }
 

@@ -1,5 +1,6 @@
 //! Kinematic unicycle driven by its speed and turn rate.
 
+use super::sin_cos;
 use crate::autodiff::{DualDynamics, Scalar};
 use crate::{Dynamics, Matrix, Result, Vector};
 use nalgebra::{U2, U3};
@@ -81,7 +82,7 @@ impl Default for Unicycle {
 impl Dynamics<U3, U2> for Unicycle {
     #[inline]
     fn step(&self, x: &Vector<3>, u: &Vector<2>) -> Vector<3> {
-        self.step_at(x[2].sin_cos(), x, u)
+        self.step_at(sin_cos(x[2]), x, u)
     }
 
     #[inline]
@@ -91,7 +92,7 @@ impl Dynamics<U3, U2> for Unicycle {
 
     #[inline]
     fn jacobians(&self, x: &Vector<3>, u: &Vector<2>, fx: &mut Matrix<3, 3>, fu: &mut Matrix<3, 2>) {
-        self.jacobians_at(x[2].sin_cos(), u, fx, fu);
+        self.jacobians_at(sin_cos(x[2]), u, fx, fu);
     }
 
     #[inline]
@@ -124,7 +125,7 @@ impl Dynamics<U3, U2> for Unicycle {
         h_ux: &mut Matrix<2, 3>,
         _h_uu: &mut Matrix<2, 2>,
     ) {
-        self.second_order_at(x[2].sin_cos(), u, lambda, h_xx, h_ux);
+        self.second_order_at(sin_cos(x[2]), u, lambda, h_xx, h_ux);
     }
 
     fn add_second_order_kept(

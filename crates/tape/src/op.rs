@@ -4,6 +4,8 @@
 //! its arguments; the evaluators of [`crate::eval`] chain them (forward tangents and second-order
 //! adjoints), so adding an operation is one row here.
 
+use ddp_core::models::sin_cos;
+
 /// An operation of one argument.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Unary {
@@ -160,8 +162,10 @@ impl Unary {
     pub fn value(self, a: f64) -> f64 {
         match self {
             Unary::Neg => -a,
-            Unary::Sin => a.sin(),
-            Unary::Cos => a.cos(),
+            // The built-in models' sine and cosine, so that a traced model computes what the
+            // built-in one does (and as fast: no rounding-mode switch per call).
+            Unary::Sin => sin_cos(a).0,
+            Unary::Cos => sin_cos(a).1,
             Unary::Tan => a.tan(),
             Unary::Exp => a.exp(),
             Unary::Log => a.ln(),
@@ -197,11 +201,11 @@ impl Unary {
         match self {
             Unary::Neg => (-a, -1.0, 0.0),
             Unary::Sin => {
-                let (s, c) = a.sin_cos();
+                let (s, c) = sin_cos(a);
                 (s, c, -s)
             }
             Unary::Cos => {
-                let (s, c) = a.sin_cos();
+                let (s, c) = sin_cos(a);
                 (c, -s, -c)
             }
             Unary::Tan => {

@@ -55,6 +55,8 @@
 
 use std::collections::BTreeMap;
 
+use ddp_core::models::sin_cos;
+
 use crate::op::{powc_partials, powc_value, Binary, Unary};
 use crate::tape::{Node, Tape};
 
@@ -554,7 +556,7 @@ fn sweep_each<const ORDER: u8, A: Slots + ?Sized>(instrs: &[Instr], s: &mut A) {
             Kind::AddScaled => s.at(a) + s.at(d) * s.at(b),
             Kind::SubScaled => s.at(a) - s.at(d) * s.at(b),
             Kind::SinCos => {
-                let (sn, cs) = s.at(a).sin_cos();
+                let (sn, cs) = sin_cos(s.at(a));
                 *s.at_mut(b) = cs;
                 if ORDER >= 1 {
                     *s.at_mut(d) = -sn;

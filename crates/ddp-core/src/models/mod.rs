@@ -58,12 +58,13 @@ fn set_zero<const R: usize, const C: usize>(m: &mut Matrix<R, C>) {
     m.as_mut_slice().fill(0.0);
 }
 
-/// `(sin theta, cos theta)` for every model's angles: musl's `sincos` (the `libm` crate, within
-/// one ulp), not the platform's. glibc's saves, sets and restores the rounding mode on every call,
-/// about half of its time in a profile of the family replays (where `sin_cos` took 7-9 % of a
-/// solve); this one runs in about 0.6x the time, and gives the same bits on every platform.
+/// `(sin theta, cos theta)` for every model's angles, and for the sines and cosines of models
+/// traced into a tape (`ddp-tape`): musl's `sincos` (the `libm` crate, within one ulp), not the
+/// platform's. glibc's saves, sets and restores the rounding mode on every call, about half of its
+/// time in a profile of the family replays (where `sin_cos` took 7-9 % of a solve); this one runs
+/// in about 0.6x the time, and gives the same bits on every platform.
 #[inline]
-fn sin_cos(theta: f64) -> (f64, f64) {
+pub fn sin_cos(theta: f64) -> (f64, f64) {
     libm::sincos(theta)
 }
 
@@ -114,7 +115,14 @@ mod tests {
         let angles = (0..200_001)
             .map(|i| -40.0 + 4e-4 * i as f64)
             .chain((0..2_000).map(|i| 1e3 + 997.3 * i as f64))
-            .chain([0.0, -0.0, 1e-300, std::f64::consts::FRAC_PI_2, std::f64::consts::PI, 1e300]);
+            .chain([
+                0.0,
+                -0.0,
+                1e-300,
+                std::f64::consts::FRAC_PI_2,
+                std::f64::consts::PI,
+                1e300,
+            ]);
         for t in angles {
             let (s, c) = sin_cos(t);
             let (s0, c0) = t.sin_cos();
@@ -124,7 +132,10 @@ mod tests {
             } else {
                 assert!((s - s0).abs() <= 1e-300, "sin({t}) = {s}, the platform's {s0}");
             }
-            assert!(ulps(c, c0) <= 1 || (c - c0).abs() <= 1e-300, "cos({t}) = {c}, the platform's {c0}");
+            assert!(
+                ulps(c, c0) <= 1 || (c - c0).abs() <= 1e-300,
+                "cos({t}) = {c}, the platform's {c0}"
+            );
         }
         // Exact: sin 0 = 0 (with the sign of zero), cos 0 = 1.
         assert_eq!(sin_cos(0.0), (0.0, 1.0));

@@ -103,6 +103,15 @@ where
     fn value(&self, x: &VectorN<NX>, u: &VectorN<NU>) -> f64;
     /// Adds `w` times the gradient and Hessian of `l` at `(x, u)` to `d` and returns `w * l(x, u)`.
     fn add_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64;
+    /// Writes the gradient and Hessian of `l` at `(x, u)` into every entry of `d` and returns
+    /// `l(x, u)`: by default [`Cost::add_derivatives`] with weight 1 into zeroed derivatives,
+    /// the same bits. The linearisation calls it at every knot; a cost that writes its entries
+    /// without reading `d` back ([`crate::costs::QuadraticCost`]) spares the processor reading
+    /// values it has just zeroed, which it cannot forward from the zeroing's wide stores.
+    fn set_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, d: &mut CostDerivatives<NX, NU>) -> f64 {
+        d.clear();
+        self.add_derivatives(x, u, 1.0, d)
+    }
     /// The state and control sizes this cost was built for; `None` where it takes any size.
     /// Compile-time sizes answer for themselves; a run-time-size cost built from weight
     /// matrices reports their sizes, so that a problem can reject pieces that disagree.
@@ -136,6 +145,9 @@ where
     }
     fn add_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
         (**self).add_derivatives(x, u, w, d)
+    }
+    fn set_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, d: &mut CostDerivatives<NX, NU>) -> f64 {
+        (**self).set_derivatives(x, u, d)
     }
     fn sizes(&self) -> (Option<usize>, Option<usize>) {
         (**self).sizes()

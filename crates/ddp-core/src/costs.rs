@@ -228,6 +228,33 @@ where
         d.luu += &self.r * w;
         0.5 * w * (dx.dot(&qdx) + du.dot(&rdu))
     }
+    fn set_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, d: &mut CostDerivatives<NX, NU>) -> f64 {
+        if !self.diagonal {
+            d.clear();
+            return self.add_derivatives(x, u, 1.0, d);
+        }
+        // `add_derivatives` with `w = 1` (`1 * q = q` exactly) into zeroed derivatives, written
+        // without reading them back: the same operations (`0.0 + a` as the sum into zero did).
+        d.lxx.as_mut_slice().fill(0.0);
+        d.luu.as_mut_slice().fill(0.0);
+        d.lux.as_mut_slice().fill(0.0);
+        let mut v = 0.0;
+        for i in 0..x.len() {
+            let dx = x[i] - self.x_ref[i];
+            let qi = self.q[(i, i)];
+            d.lx[i] = 0.0 + qi * dx;
+            d.lxx[(i, i)] = 0.0 + qi;
+            v += qi * dx * dx;
+        }
+        for i in 0..u.len() {
+            let du = u[i] - self.u_ref[i];
+            let ri = self.r[(i, i)];
+            d.lu[i] = 0.0 + ri * du;
+            d.luu[(i, i)] = 0.0 + ri;
+            v += ri * du * du;
+        }
+        0.5 * v
+    }
     fn sizes(&self) -> (Option<usize>, Option<usize>) {
         (Some(self.q.nrows()), Some(self.r.nrows()))
     }

@@ -210,9 +210,7 @@ where
     /// Only the running and terminal cost derivatives (the dynamics' are kept).
     pub fn compute_costs(&mut self, problem: &Problem<NX, NU>, xs: &[VectorN<NX>], us: &[VectorN<NU>], n: usize) {
         for (k, knot) in problem.knots()[..n].iter().enumerate() {
-            let l = &mut self.l[k];
-            l.clear();
-            knot.cost.add_derivatives(&xs[k], &us[k], 1.0, l);
+            knot.cost.set_derivatives(&xs[k], &us[k], &mut self.l[k]);
         }
         self.cost_terminal(problem, &xs[n]);
     }
@@ -250,9 +248,7 @@ fn knots_derivatives<NX: Dim, NU: Dim>(
                 None => knot.dynamics.jacobians(x, u, &mut fx[k], &mut fu[k]),
             },
         }
-        let l = &mut l[k];
-        l.clear();
-        knot.cost.add_derivatives(x, u, 1.0, l);
+        knot.cost.set_derivatives(x, u, &mut l[k]);
     }
 }
 

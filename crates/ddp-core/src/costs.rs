@@ -164,6 +164,36 @@ where
     pub fn x_ref(&self) -> &VectorN<NX> {
         &self.x_ref
     }
+
+    /// With diagonal weights: `w` times the gradients and the diagonals of `l_xx`, `l_uu`, added
+    /// to `d` or (`SET`) written into it as `0.0 + a`, the same operation as the sum into zeroed
+    /// entries (the other entries untouched); returns `w * l(x, u)`.
+    #[inline(always)]
+    fn diagonal_derivatives<const SET: bool>(
+        &self,
+        x: &VectorN<NX>,
+        u: &VectorN<NU>,
+        w: f64,
+        d: &mut CostDerivatives<NX, NU>,
+    ) -> f64 {
+        let put = |entry: &mut f64, a: f64| *entry = if SET { 0.0 + a } else { *entry + a };
+        let mut v = 0.0;
+        for i in 0..x.len() {
+            let dx = x[i] - self.x_ref[i];
+            let qi = w * self.q[(i, i)];
+            put(&mut d.lx[i], qi * dx);
+            put(&mut d.lxx[(i, i)], qi);
+            v += qi * dx * dx;
+        }
+        for i in 0..u.len() {
+            let du = u[i] - self.u_ref[i];
+            let ri = w * self.r[(i, i)];
+            put(&mut d.lu[i], ri * du);
+            put(&mut d.luu[(i, i)], ri);
+            v += ri * du * du;
+        }
+        0.5 * v
+    }
 }
 
 impl<const NX: usize, const NU: usize> QuadraticCost<Const<NX>, Const<NU>> {
@@ -201,22 +231,7 @@ where
     }
     fn add_derivatives(&self, x: &VectorN<NX>, u: &VectorN<NU>, w: f64, d: &mut CostDerivatives<NX, NU>) -> f64 {
         if self.diagonal {
-            let mut v = 0.0;
-            for i in 0..x.len() {
-                let dx = x[i] - self.x_ref[i];
-                let qi = w * self.q[(i, i)];
-                d.lx[i] += qi * dx;
-                d.lxx[(i, i)] += qi;
-                v += qi * dx * dx;
-            }
-            for i in 0..u.len() {
-                let du = u[i] - self.u_ref[i];
-                let ri = w * self.r[(i, i)];
-                d.lu[i] += ri * du;
-                d.luu[(i, i)] += ri;
-                v += ri * du * du;
-            }
-            return 0.5 * v;
+            return self.diagonal_derivatives::<false>(x, u, w, d);
         }
         let dx = x - &self.x_ref;
         let du = u - &self.u_ref;
@@ -233,27 +248,12 @@ where
             d.clear();
             return self.add_derivatives(x, u, 1.0, d);
         }
-        // `add_derivatives` with `w = 1` (`1 * q = q` exactly) into zeroed derivatives, written
-        // without reading them back: the same operations (`0.0 + a` as the sum into zero did).
+        // `add_derivatives` with `w = 1` into zeroed derivatives, written without reading them
+        // back: only the diagonal blocks' diagonals and the gradients are not zero.
         d.lxx.as_mut_slice().fill(0.0);
         d.luu.as_mut_slice().fill(0.0);
         d.lux.as_mut_slice().fill(0.0);
-        let mut v = 0.0;
-        for i in 0..x.len() {
-            let dx = x[i] - self.x_ref[i];
-            let qi = self.q[(i, i)];
-            d.lx[i] = 0.0 + qi * dx;
-            d.lxx[(i, i)] = 0.0 + qi;
-            v += qi * dx * dx;
-        }
-        for i in 0..u.len() {
-            let du = u[i] - self.u_ref[i];
-            let ri = self.r[(i, i)];
-            d.lu[i] = 0.0 + ri * du;
-            d.luu[(i, i)] = 0.0 + ri;
-            v += ri * du * du;
-        }
-        0.5 * v
+        self.diagonal_derivatives::<true>(x, u, 1.0, d)
     }
     fn sizes(&self) -> (Option<usize>, Option<usize>) {
         (Some(self.q.nrows()), Some(self.r.nrows()))

@@ -20,7 +20,7 @@
 //! the augmented Lagrangian, `KKT_STEP_MIN` `kkt_step_min`, `MAX_IT` `max_iterations` (`family.py`
 //! solves with 500, the library's default is 200), `STALL` `portfolio_stall`, `ABANDON`, `ABANDON_AFTER` `portfolio_abandon` (0: none), `portfolio_abandon_after`, `EPS` `active_threshold`, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
 //! `al_inner_progress`, `al_inner_progress_below`, `NEAR_MARGIN`, `NEAR_RHO` `al_near_margin`,
-//! `al_near_rho`, `NEAR_CRAWL`, `NEAR_CRAWL_CHANGE` `al_near_crawl`, `al_near_crawl_change`; `LS_MIN` the line search's `step_min`; `FUNNEL` `barrier_funnel` (`inf`: none); `BARRIER_MU`, `BARRIER_FACTOR`,
+//! `al_near_rho`, `NEAR_CRAWL`, `NEAR_CRAWL_CHANGE` `al_near_crawl`, `al_near_crawl_change`; `LS_MIN`, `LS_FACTOR` the line search's `step_min`, `step_factor`; `REG_MIN`, `REG_FACTOR` the regularisation's `mu_min`, `mu_factor`; `FUNNEL` `barrier_funnel` (`inf`: none); `BARRIER_MU`, `BARRIER_FACTOR`,
 //! `BARRIER_FINAL`, `BARRIER_INNER`, `BARRIER_RELAX` the homotopy's `barrier_mu_init`, `barrier_mu_factor`, `barrier_mu_final`,
 //! `barrier_inner_iterations`, `barrier_relaxation`; `CON_HESS=1` `constraint_hessian`; `COST_TOL`, `GRAD_TOL` the
 //! tolerances; `METHOD=ddp` full DDP; `ONLY=id[,id...]` filters problems (by substring); `TABLE`, `QPS`, `PHASES`, `STARTS` print
@@ -166,6 +166,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = env("LS_MIN") {
         s.line_search.step_min = v;
     }
+    if let Some(v) = env("LS_FACTOR") {
+        s.line_search.step_factor = v;
+    }
+    if let Some(v) = env("REG_MIN") {
+        s.regularization.mu_min = v;
+    }
+    if let Some(v) = env("REG_FACTOR") {
+        s.regularization.mu_factor = v;
+    }
     if let Some(v) = env("AL_SWITCH") {
         s.al_switch_violation = v;
     }
@@ -198,6 +207,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
         let spec = serde_json::to_string(&rec["spec"])?;
+        if std::env::var("DUMP").is_ok() {
+            eprintln!("P {id}");
+        }
         let bp = BenchmarkProblem::from_json(&spec)?;
         let mut best = f64::INFINITY;
         let mut ipopt_ms = f64::NAN;

@@ -199,8 +199,9 @@ pub struct Settings {
     /// take the family replays to 0.91x-0.96x of that). 1 (the default): one thread.
     pub portfolio_threads: usize,
     /// [`WarmUp::Portfolio`]: where the kept solution (feasible) costs more than this factor
-    /// times the optimum of the problem without its constraints (solved from the kept solution;
-    /// above it by more than the factor minus one of that cost's magnitude), one more start per
+    /// times the optimum of the problem without its constraints (solved from the kept solution,
+    /// or the augmented-Lagrangian start's relaxed path where that costs less; above it by more
+    /// than the factor minus one of that cost's magnitude), one more start per
     /// binding state row of the kept solution (a positive multiplier or a zero value somewhere),
     /// steered to the row's far side: an augmented-Lagrangian start from the initial guess with
     /// a guide row (a half-space past the far boundary along the row's gradient, at the time the

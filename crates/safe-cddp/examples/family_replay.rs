@@ -207,9 +207,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
         let spec = serde_json::to_string(&rec["spec"])?;
-        if std::env::var("DUMP").is_ok() {
-            eprintln!("P {id}");
-        }
         let bp = BenchmarkProblem::from_json(&spec)?;
         let mut best = f64::INFINITY;
         let mut ipopt_ms = f64::NAN;

@@ -306,8 +306,8 @@ where
     /// with that alone the gate took the kept cost (7.52) for one near the obstacle-free optimum
     /// and ran no guided start, 637 % above the peers' optimum. The relaxation's path (0.539)
     /// opens the gate, and the mirrored start ends 0.6 % below the peers. On the replays of seeds
-    /// 1-18 no other outcome changes, and no solve more is run (`bench/peers/README.md`, "The
-    /// gate's bound from the relaxation").
+    /// 1-18 no other outcome changes, and no solve is added (`bench/peers/README.md`, "Four more
+    /// seeds not tuned on, and the gate's bound from the relaxation").
     fn free_bound(&mut self, problem: &Problem<NX, NU>) -> Result<f64> {
         let j = self.free_cost(problem)?;
         let relaxed = self.portfolio.relaxed_cost;

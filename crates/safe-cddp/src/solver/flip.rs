@@ -309,9 +309,8 @@ where
     /// 1-18 no other outcome changes, and no solve is added (`bench/peers/README.md`, "Four more
     /// seeds not tuned on, and the gate's bound from the relaxation").
     fn free_bound(&mut self, problem: &Problem<NX, NU>) -> Result<f64> {
-        let j = self.free_cost(problem)?;
-        let relaxed = self.portfolio.relaxed_cost;
-        Ok(if relaxed < j { relaxed } else { j })
+        // (`f64::min` passes over a `NaN`: no relaxed path where the first start did not run.)
+        Ok(self.free_cost(problem)?.min(self.portfolio.relaxed_cost))
     }
 
     /// The optimum's cost of the problem without its constraints (at most [`FREE_ITERATIONS`]

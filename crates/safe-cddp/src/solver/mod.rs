@@ -211,7 +211,9 @@ where
     stopped: Option<StartOutcome>,
     /// The cost at the end of the augmented-Lagrangian start's first inner solve (zero
     /// multipliers, the initial penalty): a relaxation in which the path may still cut through
-    /// the obstacles (`NaN` until then).
+    /// the obstacles (`NaN` until then). The third start's gate compares with it
+    /// (`Settings::portfolio_new_side`), and it bounds the obstacle-free optimum of the guided
+    /// starts' gate (`free_bound`).
     pub(super) relaxed_cost: f64,
     /// The starts of this solve so far (the report's [`Report::starts`]).
     starts: Vec<StartReport>,

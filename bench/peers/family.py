@@ -374,10 +374,16 @@ def start_counts(records: list[dict[str, Any]]) -> tuple[dict[str, int], dict[st
 
 
 def start_name(st: dict[str, Any]) -> str:
-    """A portfolio start's name: its warm-up, the third start's barrier weight, or `flip` for
-    the starts steered to a binding obstacle's far side (`portfolio_flip`)."""
+    """A portfolio start's name: its warm-up, the third start's barrier weight, `flip` for the
+    starts steered to a binding obstacle's far side (`portfolio_flip`), `mirror` for the one
+    steered to the far side of every obstacle (`portfolio_mirror`), or `plan` for the one steered
+    round them on the sides of their shortest path (`portfolio_plan`)."""
     if st.get("flip") is not None:
         return "flip"
+    if st.get("mirror"):
+        return "mirror"
+    if st.get("plan"):
+        return "plan"
     mu = st.get("barrier_mu_init")
     return st["warm_up"] if mu is None else f"{st['warm_up']} (mu_init {mu:g})"
 

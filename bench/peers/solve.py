@@ -91,7 +91,7 @@ def costs_of(p: BenchProblem) -> tuple[ddpkit.Cost, ddpkit.Cost]:
 
 def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
     """`--two-starts`, `--apart`, `--barrier-funnel`, `--hard-barrier`, `--no-new-side`,
-    `--no-flip`, `--no-mirror` and `--portfolio-threads`:
+    `--no-flip`, `--no-mirror`, `--no-plan` and `--portfolio-threads`:
     the `SafeCddpSolver` options the peer benchmarks expose (read back with `safe_options_of`)."""
     ap.add_argument(
         "--two-starts",
@@ -156,6 +156,12 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "obstacle at once, after the flipped starts; the default before 2026-12-06, night)",
     )
     ap.add_argument(
+        "--no-plan",
+        action="store_true",
+        help="ddpkit with SafeCddpSolver(portfolio_plan=None): no planned start (round the obstacles on the "
+        "sides of their shortest path, before the flipped starts; the default before 2026-12-07, night)",
+    )
+    ap.add_argument(
         "--no-abandon",
         action="store_true",
         help="ddpkit with SafeCddpSolver(portfolio_abandon=None): later starts run on when feasible far above the "
@@ -195,6 +201,8 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
         options["portfolio_flip_starts"] = args.flip_starts
     if args.no_mirror:
         options["portfolio_mirror"] = None
+    if args.no_plan:
+        options["portfolio_plan"] = None
     if args.no_abandon:
         options["portfolio_abandon"] = None
     if args.apart is not None:

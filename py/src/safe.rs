@@ -800,6 +800,11 @@ fn default_mirror() -> Option<i64> {
     Settings::default().portfolio_mirror.map(|v| v as i64)
 }
 
+/// `Settings::portfolio_plan`'s default as the keyword argument's type.
+fn default_plan() -> Option<i64> {
+    Settings::default().portfolio_plan.map(|v| v as i64)
+}
+
 /// The defaults of `SafeCddpSolver`'s keyword arguments (`safe_cddp::Settings::default()`).
 pub(crate) fn safe_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     safe_settings_dict(py, &Settings::default())
@@ -822,6 +827,7 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("portfolio_flip_apart", s.portfolio_flip_apart)?;
     d.set_item("portfolio_flip_starts", s.portfolio_flip_starts)?;
     d.set_item("portfolio_mirror", s.portfolio_mirror)?;
+    d.set_item("portfolio_plan", s.portfolio_plan)?;
     d.set_item("portfolio_abandon", s.portfolio_abandon)?;
     d.set_item(
         "barrier_funnel",
@@ -861,6 +867,7 @@ fn settings_from(
     portfolio_flip_apart: f64,
     portfolio_flip_starts: i64,
     portfolio_mirror: Option<i64>,
+    portfolio_plan: Option<i64>,
     portfolio_abandon: Option<f64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
@@ -918,6 +925,15 @@ fn settings_from(
             )
         })?),
     };
+    let portfolio_plan = match portfolio_plan {
+        None => None,
+        Some(v) => Some(usize::try_from(v).ok().filter(|&v| v >= 1).ok_or_else(|| {
+            invalid(
+                "portfolio_plan",
+                format!("must be at least 1 iteration, or None for no planned start, got {v}"),
+            )
+        })?),
+    };
     let s = Settings {
         method,
         max_iterations,
@@ -933,6 +949,7 @@ fn settings_from(
         portfolio_flip_apart,
         portfolio_flip_starts,
         portfolio_mirror,
+        portfolio_plan,
         portfolio_abandon,
         // `None`: no limit.
         barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
@@ -1154,6 +1171,7 @@ impl SafeCddpSolver {
                         portfolio_flip_apart = Settings::default().portfolio_flip_apart,
                         portfolio_flip_starts = Settings::default().portfolio_flip_starts as i64,
                         portfolio_mirror = default_mirror(),
+                        portfolio_plan = default_plan(),
                         portfolio_abandon = Settings::default().portfolio_abandon,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
@@ -1164,7 +1182,7 @@ impl SafeCddpSolver {
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_abandon=0.3, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
     )]
     #[allow(clippy::too_many_arguments)]
@@ -1186,6 +1204,7 @@ impl SafeCddpSolver {
         portfolio_flip_apart: f64,
         #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_flip_starts: i64,
         #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
+        #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_plan: Option<i64>,
         portfolio_abandon: Option<f64>,
         barrier_funnel: Option<f64>,
         barrier_mu_init: f64,
@@ -1208,6 +1227,7 @@ impl SafeCddpSolver {
             portfolio_flip_apart,
             portfolio_flip_starts,
             portfolio_mirror,
+            portfolio_plan,
             portfolio_abandon,
             barrier_funnel,
             barrier_mu_init,
@@ -1393,7 +1413,8 @@ pub struct SafeSolution {
     /// barrier weight, else ``None``), ``flip`` (for a flipped start, ``portfolio_flip``: the
     /// index of the constraint whose other side it was steered to, else ``None``), ``mirror``
     /// (``True`` for the start steered to the other side of every obstacle, ``portfolio_mirror``),
-    /// ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
+    /// ``plan`` (``True`` for the start steered round the obstacles on the sides of their shortest
+    /// path, ``portfolio_plan``), ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
     /// on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its homotopy on the
     /// kept solution's sides), ``"stalled"`` (stopped where, at the rate its cost fell, it
     /// could not reach the kept cost within its iterations) or ``"abandoned"`` (stopped at a
@@ -1501,6 +1522,7 @@ impl SafeSolution {
             d.set_item("barrier_mu_init", st.barrier_mu_init)?;
             d.set_item("flip", st.flip)?;
             d.set_item("mirror", st.mirror)?;
+            d.set_item("plan", st.plan)?;
             d.set_item("iterations", st.iterations)?;
             d.set_item("cost", st.cost)?;
             d.set_item("max_violation", st.max_violation)?;
@@ -1705,6 +1727,7 @@ impl Mpc {
             d.portfolio_flip_apart,
             d.portfolio_flip_starts as i64,
             default_mirror(),
+            default_plan(),
             d.portfolio_abandon,
             Some(d.barrier_funnel),
             d.barrier_mu_init,
@@ -2016,6 +2039,7 @@ where
                         portfolio_flip_apart = Settings::default().portfolio_flip_apart,
                         portfolio_flip_starts = Settings::default().portfolio_flip_starts as i64,
                         portfolio_mirror = default_mirror(),
+                        portfolio_plan = default_plan(),
                         portfolio_abandon = Settings::default().portfolio_abandon,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
@@ -2025,7 +2049,7 @@ where
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_abandon=0.3, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -2049,6 +2073,7 @@ fn solve_batch_safe(
     portfolio_flip_apart: f64,
     #[pyo3(from_py_with = crate::convert::int_i64)] portfolio_flip_starts: i64,
     #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
+    #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_plan: Option<i64>,
     portfolio_abandon: Option<f64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
@@ -2070,6 +2095,7 @@ fn solve_batch_safe(
         portfolio_flip_apart,
         portfolio_flip_starts,
         portfolio_mirror,
+        portfolio_plan,
         portfolio_abandon,
         barrier_funnel,
         barrier_mu_init,

@@ -219,12 +219,17 @@ def test_a_flipped_start_finds_the_way_between_the_obstacles() -> None:
     off = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "1", "--no-flip"]))
     assert off["portfolio_flip"] is None
     before = solve.DdpkitSolver(p, safe_options=off).solve()
-    after = solve.DdpkitSolver(p, safe_options={}).solve()
+    # The planned start (`portfolio_plan`), which runs first, finds the optimum too and leaves
+    # out the flipped start it steers like: the flipped starts are checked without it.
+    no_plan = {"portfolio_plan": None}
+    after = solve.DdpkitSolver(p, safe_options=no_plan).solve()
+    planned = solve.DdpkitSolver(p, safe_options={}).solve()
     assert before.max_violation <= 1e-6 and after.max_violation <= 1e-6
     assert before.cost > 1.5 * fatrop
     assert after.status == "converged" and after.cost <= fatrop * (1 + 1e-6)
+    assert planned.status == "converged" and planned.cost <= fatrop * (1 + 1e-6)
     # The report names the flipped starts and which one was kept.
-    solver = solve.DdpkitSolver(p, safe_options={}).constrained
+    solver = solve.DdpkitSolver(p, safe_options=no_plan).constrained
     starts = solver.solve().starts
     flips = [st for st in starts if st["flip"] is not None]
     assert len(flips) == 2 and sum(st["outcome"] == "kept" for st in flips) == 1
@@ -254,14 +259,19 @@ def test_a_mirrored_start_goes_round_the_other_side_of_a_whole_cluster() -> None
     assert spec["name"] == "point-s1-i21-a0"
     p = parse(spec)
     fatrop = 0.5699214263518232
-    off = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "1", "--no-mirror"]))
-    assert off["portfolio_mirror"] is None
+    args = ["--problems", "3", "--seed", "1", "--no-mirror", "--no-plan"]
+    off = solve.safe_options_of(family.build_parser().parse_args(args))
+    assert off["portfolio_mirror"] is None and off["portfolio_plan"] is None
     before = solve.DdpkitSolver(p, safe_options=off).solve()
-    solver = solve.DdpkitSolver(p, safe_options={}).constrained
+    # The planned start (`portfolio_plan`), which runs first, finds the optimum too and, kept,
+    # leaves the mirrored start out: the mirrored start is checked without it.
+    solver = solve.DdpkitSolver(p, safe_options={"portfolio_plan": None}).constrained
     after = solver.solve()
+    planned = solve.DdpkitSolver(p, safe_options={}).solve()
     assert before.max_violation <= 1e-6 and after.max_violation <= 1e-6
     assert before.cost > 1.3 * fatrop
     assert after.status == "converged" and after.cost <= fatrop * (1 + 1e-6)
+    assert planned.status == "converged" and planned.cost <= fatrop * (1 + 1e-6)
     kept = [st for st in after.starts if st["outcome"] == "kept"]
     assert len(kept) == 1 and kept[0]["mirror"] is True and kept[0]["flip"] is None
     assert sum(st["mirror"] for st in after.starts) == 1
@@ -270,6 +280,43 @@ def test_a_mirrored_start_goes_round_the_other_side_of_a_whole_cluster() -> None
     assert again == solver and again != solve.DdpkitSolver(p, safe_options=off).constrained
     with pytest.raises(ValueError, match="portfolio_mirror"):
         solve.DdpkitSolver(p, safe_options={"portfolio_mirror": 0})
+
+
+def test_a_planned_start_takes_the_sides_of_the_shortest_path() -> None:
+    # point-s17-i28-a0 (bench/results/family_s17_210_relax.json): every other start passes the
+    # four obstacles on the side that costs 26x the peers' optimum (4.89 against 0.1838), and the
+    # kept solution binds none of them, so no flipped start runs; the shortest path of the
+    # position among the obstacles passes all four on the other side, and with `portfolio_plan`
+    # (the default, 5 guided iterations) a start steered there reaches the peers' optimum.
+    import pickle
+
+    import ddpkit
+    import solve
+
+    assert ddpkit.default_settings("SafeCddpSolver")["portfolio_plan"] == 5
+    spec = family.generate("point", 17, 28)
+    assert spec["name"] == "point-s17-i28-a0"
+    p = parse(spec)
+    fatrop = 0.18383476481514527
+    off = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "1", "--no-plan"]))
+    assert off["portfolio_plan"] is None
+    before = solve.DdpkitSolver(p, safe_options=off).solve()
+    solver = solve.DdpkitSolver(p, safe_options={}).constrained
+    after = solver.solve()
+    assert before.max_violation <= 1e-6 and after.max_violation <= 1e-6
+    assert before.cost > 10 * fatrop
+    assert after.status == "converged" and after.cost <= fatrop * (1 + 1e-6)
+    kept = [st for st in after.starts if st["outcome"] == "kept"]
+    assert len(kept) == 1 and kept[0]["plan"] is True and kept[0]["flip"] is None
+    assert not kept[0]["mirror"]
+    # Kept, it leaves the mirrored start out.
+    assert sum(st["plan"] for st in after.starts) == 1 and not any(st["mirror"] for st in after.starts)
+    assert family.start_name(kept[0]) == "plan"
+    # The setting pickles with the solver; zero iterations is an error naming it.
+    again = pickle.loads(pickle.dumps(solver))
+    assert again == solver and again != solve.DdpkitSolver(p, safe_options=off).constrained
+    with pytest.raises(ValueError, match="portfolio_plan"):
+        solve.DdpkitSolver(p, safe_options={"portfolio_plan": 0})
 
 
 def test_a_start_feasible_far_above_the_kept_cost_is_abandoned() -> None:

@@ -14,7 +14,8 @@
 //! (`Settings::portfolio_new_side`; 0: none), `FLIP=F`, `FLIP_GUIDE=K` the flipped starts
 //! (`Settings::portfolio_flip`, `portfolio_flip_guide`; 0: none), `FLIP_STARTS=K` at most `K` of
 //! them (`portfolio_flip_starts`), `FLIP_APART=F` their gate where the first two
-//! starts end apart (`portfolio_flip_apart`), `THREADS=2` its concurrent starts
+//! starts end apart (`portfolio_flip_apart`), `MIRROR=K`, `PLAN=K` the mirrored and the planned
+//! start's guided iterations (`portfolio_mirror`, `portfolio_plan`; 0: none), `THREADS=2` its concurrent starts
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
 //! the augmented Lagrangian, `KKT_STEP_MIN` `kkt_step_min`, `MAX_IT` `max_iterations` (`family.py`
@@ -93,6 +94,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = env("MIRROR") {
         // 0: none.
         s.portfolio_mirror = (v > 0.0).then_some(v as usize);
+    }
+    if let Some(v) = env("PLAN") {
+        // 0: none.
+        s.portfolio_plan = (v > 0.0).then_some(v as usize);
     }
     if let Some(v) = env("FLIP_STARTS") {
         s.portfolio_flip_starts = v as usize;

@@ -136,6 +136,15 @@ where
         None
     }
 
+    /// The circular obstacle this constraint is, if it is one: a single state row `g <= 0` that
+    /// holds exactly outside a disc on two state entries ([`crate::constraints::Circle`]). The
+    /// portfolio's planned start ([`crate::Settings::portfolio_plan`]) plans a path round the
+    /// discs of a problem and steers a start to its sides. `None` (the default): not a disc, and
+    /// not planned round.
+    fn planar_disc(&self) -> Option<crate::plan::PlanarDisc> {
+        None
+    }
+
     /// Checks that this constraint fits `nx` states and `nu` controls (state indices in range,
     /// bounds of the right length); the solver calls it once when it is built. The default
     /// accepts every size (a compile-time size was checked by the type system).
@@ -191,6 +200,9 @@ where
     }
     fn relative_degree(&self) -> Option<usize> {
         (**self).relative_degree()
+    }
+    fn planar_disc(&self) -> Option<crate::plan::PlanarDisc> {
+        (**self).planar_disc()
     }
     fn check_sizes(&self, nx: usize, nu: usize) -> Result<()> {
         (**self).check_sizes(nx, nu)

@@ -214,6 +214,15 @@ where
         let (_, _, h) = self.terms(x);
         add_planar_block(h_xx, self.indices, &(w[0] * h));
     }
+    fn planar_disc(&self) -> Option<crate::plan::PlanarDisc> {
+        Some(crate::plan::PlanarDisc {
+            indices: self.indices,
+            disc: crate::plan::Disc {
+                center: self.center,
+                radius: self.radius,
+            },
+        })
+    }
     fn check_sizes(&self, nx: usize, _nu: usize) -> Result<()> {
         check_indices_in(self.indices, Some(nx))
     }

@@ -51,6 +51,7 @@ pub mod constraints;
 pub mod figure;
 pub mod kalman;
 pub mod mpc;
+pub mod plan;
 pub mod qp;
 pub mod quantile;
 pub mod settings;

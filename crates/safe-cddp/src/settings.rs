@@ -250,6 +250,19 @@ pub struct Settings {
     /// 1969, and end more than 5 % above it on 21 instead of 32, for 1.06x the time
     /// (`bench/peers/README.md`, "The other side of a whole cluster"). `None`: no such start.
     pub portfolio_mirror: Option<usize>,
+    /// [`Settings::portfolio_flip`]: before the flipped starts (behind the same gate), one more
+    /// start steered round the obstacles on the sides of the shortest path of the robot's
+    /// position among them ([`crate::plan::shortest_path`], from the initial state to where the
+    /// gate's obstacle-free solve ends), where the kept solution passes one of the obstacles that
+    /// path wraps round on the other side: one target per such obstacle, a half-plane just
+    /// outside it at the path's contact, at the time the path reaches it at a steady speed, for
+    /// this many iterations, then without them to its own optimum, kept when better. Every start
+    /// before it picks its sides on the way in, near its initial guess; the shortest path's are
+    /// the peers' optimum's on 14 of the 25 problems of the family replays of 18 seeds where
+    /// ddpkit ended more than 5 % above it (`bench/peers/README.md`, "The planned start"). Only
+    /// where the state constraints include discs ([`crate::Constraint::planar_disc`]), all on
+    /// the same two state entries and of one relative degree. `None`: no such start.
+    pub portfolio_plan: Option<usize>,
     /// [`WarmUp::Portfolio`]: a start from the initial guess after the first two (the third
     /// start, each flipped start) stops, discarded ([`StartOutcome::Stalled`]), once this many
     /// accepted full steps in a row of its augmented Lagrangian, at a feasible trajectory,
@@ -429,6 +442,7 @@ impl Default for Settings {
             portfolio_flip_starts: 2,
             portfolio_flip_guide: 25,
             portfolio_mirror: Some(5),
+            portfolio_plan: Some(5),
             portfolio_stall: 10,
             portfolio_abandon: Some(0.3),
             portfolio_abandon_after: 45,
@@ -652,6 +666,12 @@ impl Settings {
         if self.portfolio_flip_guide == 0 {
             return Err(Error::invalid("settings.portfolio_flip_guide", "must be at least 1"));
         }
+        if self.portfolio_plan == Some(0) {
+            return Err(Error::invalid(
+                "settings.portfolio_plan",
+                "must be at least 1 iteration (None: no planned start)",
+            ));
+        }
         if self.portfolio_mirror == Some(0) {
             return Err(Error::invalid(
                 "settings.portfolio_mirror",
@@ -801,6 +821,9 @@ pub struct StartReport {
     /// The mirrored start ([`Settings::portfolio_mirror`]): steered to the other side of every
     /// state row at once.
     pub mirror: bool,
+    /// The planned start ([`Settings::portfolio_plan`]): steered round the obstacles on the
+    /// sides of the shortest path among them.
+    pub plan: bool,
     /// Accepted steps.
     pub iterations: usize,
     /// Cost where it ended.
@@ -815,10 +838,13 @@ pub struct StartReport {
 
 impl StartReport {
     /// `"augmented_lagrangian"`, `"barrier"`, `"barrier (mu_init 3.0e-3)"`, `"polish"`,
-    /// `"flip (constraint 2)"` or `"mirror"`.
+    /// `"flip (constraint 2)"`, `"mirror"` or `"plan"`.
     pub fn name(&self) -> String {
         if self.mirror {
             return "mirror".to_string();
+        }
+        if self.plan {
+            return "plan".to_string();
         }
         if let Some(j) = self.flip {
             return format!("flip (constraint {j})");
@@ -832,8 +858,8 @@ impl StartReport {
 }
 
 /// Most starts of one [`WarmUp::Portfolio`] solve besides the flipped ones (two, the third, the
-/// polish and the mirrored start).
-pub(crate) const MAX_STARTS: usize = 5;
+/// polish, the planned and the mirrored start).
+pub(crate) const MAX_STARTS: usize = 6;
 
 /// Outcome and statistics of a solve. Lives in the solver; `log` is allocated once.
 #[derive(Debug, Clone)]

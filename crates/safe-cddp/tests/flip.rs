@@ -35,10 +35,27 @@ fn no_flips() -> Settings {
     }
 }
 
+/// The defaults without the planned start (`portfolio_plan`), which runs before the flipped
+/// ones: where it finds the optimum on its own the flipped and mirrored starts it steers like
+/// are left out, so these tests of theirs run without it (and check that with it the optimum
+/// is found all the same).
+fn no_plan() -> Settings {
+    Settings {
+        portfolio_plan: None,
+        ..Settings::default()
+    }
+}
+
 #[test]
 fn a_flipped_start_finds_the_way_between_the_obstacles() {
     let before = solve(CAR_S1_I21, no_flips());
-    let after = solve(CAR_S1_I21, Settings::default());
+    let after = solve(CAR_S1_I21, no_plan());
+    let planned = solve(CAR_S1_I21, Settings::default());
+    assert!(
+        planned.cost <= FATROP_COST * (1.0 + 1e-6),
+        "with the plan: {}",
+        planned.cost
+    );
     assert_eq!((before.status, after.status), (Status::Converged, Status::Converged));
     assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
     assert!(before.cost > 1.5 * FATROP_COST, "without: {}", before.cost);
@@ -65,7 +82,7 @@ fn a_flipped_start_finds_the_way_between_the_obstacles() {
         CAR_S1_I21,
         Settings {
             portfolio_flip_starts: 1,
-            ..Settings::default()
+            ..no_plan()
         },
     );
     let first: Vec<_> = one.starts.iter().filter(|s| s.flip.is_some()).collect();
@@ -302,7 +319,13 @@ const POINT_S8_I22_FATROP: f64 = 0.1749220743304266;
 #[test]
 fn a_flipped_start_goes_round_a_cluster_of_obstacles() {
     let before = solve(POINT_S8_I22, no_flips());
-    let after = solve(POINT_S8_I22, Settings::default());
+    let after = solve(POINT_S8_I22, no_plan());
+    let planned = solve(POINT_S8_I22, Settings::default());
+    assert!(
+        planned.cost <= POINT_S8_I22_FATROP * (1.0 + 1e-6),
+        "with the plan: {}",
+        planned.cost
+    );
     assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
     assert!(before.cost > 1.4 * POINT_S8_I22_FATROP, "without: {}", before.cost);
     assert!(after.cost <= POINT_S8_I22_FATROP * (1.0 + 1e-6), "with: {}", after.cost);
@@ -516,14 +539,20 @@ const POINT_S1_I21_FATROP: f64 = 0.5699214263518232;
 fn no_mirror() -> Settings {
     Settings {
         portfolio_mirror: None,
-        ..Settings::default()
+        ..no_plan()
     }
 }
 
 #[test]
 fn a_mirrored_start_goes_round_the_other_side_of_a_whole_cluster() {
     let before = solve(POINT_S1_I21, no_mirror());
-    let after = solve(POINT_S1_I21, Settings::default());
+    let after = solve(POINT_S1_I21, no_plan());
+    let planned = solve(POINT_S1_I21, Settings::default());
+    assert!(
+        planned.cost <= POINT_S1_I21_FATROP * (1.0 + 1e-6),
+        "with the plan: {}",
+        planned.cost
+    );
     assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
     assert!(before.cost > 1.3 * POINT_S1_I21_FATROP, "without: {}", before.cost);
     // The flipped start of the binding obstacle ran, and was not enough.
@@ -541,10 +570,11 @@ fn a_mirrored_start_goes_round_the_other_side_of_a_whole_cluster() {
         &after.starts[..n].iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>(),
         &before.starts.iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>()
     );
-    // Without flipped starts there is no mirrored one either (it shares their gate).
+    // Without flipped starts there is no mirrored one either, nor a planned one (they share
+    // their gate).
     let off = solve(POINT_S1_I21, no_flips());
     assert!(
-        off.starts.iter().all(|s| !s.mirror && s.flip.is_none()),
+        off.starts.iter().all(|s| !s.mirror && s.flip.is_none() && !s.plan),
         "{}",
         off.table()
     );

@@ -163,6 +163,7 @@ where
 enum Guided {
     Flip(usize),
     Mirror,
+    Plan,
 }
 
 /// A solver of guided starts and its guide row.
@@ -199,6 +200,12 @@ where
     /// Scratch: one constraint's values; the guide's `a`.
     g: Vec<f64>,
     a: Vec<f64>,
+    /// Scratch of the planned start: `(constraint, disc)` of each disc.
+    plan_discs: Vec<(usize, crate::plan::Disc)>,
+    /// The constraints the planned start steers to the other side of the kept solution's.
+    plan_flipped: Vec<usize>,
+    /// Whether the planned start of this solve was kept when it ended.
+    plan_kept: bool,
 }
 
 impl<NX: Dim, NU: Dim> Flips<NX, NU>
@@ -216,6 +223,9 @@ where
             binding: Vec::with_capacity(state_rows),
             g: vec![0.0; max_dim.max(1)],
             a: vec![0.0; dims.nx()],
+            plan_discs: Vec::with_capacity(state_rows),
+            plan_flipped: Vec::with_capacity(state_rows),
+            plan_kept: false,
         }
     }
 }
@@ -240,6 +250,8 @@ const EXIT_STEPS: usize = 200;
 /// The guide's target: this factor times the distance to the first point past the flipped row
 /// where no state row is violated (its far boundary, or the cluster's).
 const BEYOND: f64 = 1.1;
+/// The planned start's targets lie this fraction of the disc's radius outside it.
+const PLAN_CLEARANCE: f64 = 0.1;
 
 /// Whether `x` at time `t` violates a row of a state-only constraint (`g` is scratch for the
 /// largest constraint).
@@ -453,11 +465,33 @@ where
         let mut queued = 0;
         let mut kept_any = false;
         let mut started = 0;
+        // The planned start first: a flipped start to a side it already steers to is left out
+        // (counted neither as run nor towards `portfolio_flip_starts`), and where it is kept the
+        // mirrored start is too.
+        let f = &mut self.portfolio.flips;
+        f.plan_kept = false;
+        f.plan_flipped.clear();
+        if let Some(guide_iterations) = s.portfolio_plan {
+            if self.plan_guide(queued, problem)? {
+                ready[queued] = Some(Ready {
+                    start: Guided::Plan,
+                    guide_iterations,
+                });
+                queued += 1;
+                if queued == width {
+                    kept_any |= self.run_ready(problem, &mut ready, discarded, discarded_qps)?;
+                    queued = 0;
+                }
+            }
+        }
         for i in 0..self.portfolio.flips.binding.len() {
             if started == s.portfolio_flip_starts {
                 break;
             }
             let (_, j, r, row) = self.portfolio.flips.binding[i];
+            if self.portfolio.flips.plan_flipped.contains(&j) {
+                continue;
+            }
             // Every guide is read from the solution kept before the flipped starts (this solver's
             // trajectory: the flipped starts run on the guide solvers).
             let Some((t, b)) = self.guide_for(j, r, row) else {
@@ -480,7 +514,19 @@ where
             }
         }
         if let Some(guide_iterations) = s.portfolio_mirror {
-            if self.mirror_guide(queued, problem)? {
+            // Whether the mirrored start runs hangs on whether the planned start was kept: with
+            // two threads, one still waiting for its pair runs first, as on one thread.
+            if matches!(
+                ready[0],
+                Some(Ready {
+                    start: Guided::Plan,
+                    ..
+                })
+            ) {
+                kept_any |= self.run_ready(problem, &mut ready, discarded, discarded_qps)?;
+                queued = 0;
+            }
+            if !self.portfolio.flips.plan_kept && self.mirror_guide(queued, problem)? {
                 ready[queued] = Some(Ready {
                     start: Guided::Mirror,
                     guide_iterations,
@@ -592,6 +638,86 @@ where
         Ok(true)
     }
 
+    /// [`crate::Settings::portfolio_plan`]: the guide of the start round the obstacles on the
+    /// sides of their shortest path ([`crate::plan::shortest_path`]), on guide solver
+    /// `guide_slot`, when the solution kept before the guided starts passes one of the discs that
+    /// path wraps round on its other side. The path runs from the initial position to the end of
+    /// the gate's obstacle-free solve (where the robot goes without obstacles; the goal of a goal
+    /// cost, or near it), among the state constraints that are discs on one pair of state
+    /// entries, all of one relative degree. Each contact is a target: at the time the path
+    /// reaches it at a steady speed along the horizon, `x` on the disc's contact side of the
+    /// tangent through the contact moved out by [`PLAN_CLEARANCE`] of the radius. Returns whether
+    /// there is such a start.
+    fn plan_guide(&mut self, guide_slot: usize, problem: &Problem<NX, NU>) -> Result<bool> {
+        let n = self.core.n;
+        let nx = self.dims().nx();
+        let f = &mut self.portfolio.flips;
+        f.guides[guide_slot].row.clear();
+        f.plan_discs.clear();
+        let (mut indices, mut degree) = (None, None);
+        for (j, (c, slot)) in self.constraints.iter().zip(&self.rows.slots).enumerate() {
+            if slot.mixed || slot.dim == 0 {
+                continue;
+            }
+            let Some(d) = c.planar_disc() else {
+                continue;
+            };
+            if *indices.get_or_insert(d.indices) != d.indices || *degree.get_or_insert(slot.degree) != slot.degree {
+                return Ok(false);
+            }
+            f.plan_discs.push((j, d.disc));
+        }
+        let (Some([i0, i1]), Some(degree)) = (indices, degree) else {
+            return Ok(false);
+        };
+        let Some(end) = f
+            .free
+            .as_ref()
+            .and_then(|free| free.xs().get(n).map(|x| [x[i0], x[i1]]))
+        else {
+            return Ok(false);
+        };
+        let xs = &self.core.traj.xs[..=n];
+        let start = [xs[0][i0], xs[0][i1]];
+        let discs: Vec<crate::plan::Disc> = f.plan_discs.iter().map(|&(_, d)| d).collect();
+        let Some(path) = crate::plan::shortest_path(start, end, &discs) else {
+            return Ok(false);
+        };
+        // The kept solution already on the path's side of every disc it wraps round: nothing new.
+        for c in &path.contacts {
+            let center = discs[c.disc].center;
+            let planned = crate::plan::winding(path.points.iter().copied(), center);
+            let kept = crate::plan::winding(xs.iter().map(|x| [x[i0], x[i1]]), center);
+            if planned * kept < 0.0 {
+                f.plan_flipped.push(f.plan_discs[c.disc].0);
+            }
+        }
+        if f.plan_flipped.is_empty() || path.length <= 0.0 {
+            return Ok(false);
+        }
+        let guide_row = &f.guides[guide_slot].row;
+        let mut count = 0;
+        for c in &path.contacts {
+            let t = ((c.s / path.length * n as f64).round() as usize).clamp(1, n);
+            if guide_row.find(t).is_some() {
+                continue;
+            }
+            let d = discs[c.disc];
+            f.a.fill(0.0);
+            f.a[i0] = c.normal[0];
+            f.a[i1] = c.normal[1];
+            let b = c.normal[0] * d.center[0] + c.normal[1] * d.center[1] + (1.0 + PLAN_CLEARANCE) * d.radius;
+            guide_row.set(count, t, &f.a[..nx], b);
+            count += 1;
+        }
+        if count == 0 {
+            f.plan_flipped.clear();
+            return Ok(false);
+        }
+        self.prepare_guide(guide_slot, problem, degree)?;
+        Ok(true)
+    }
+
     /// What a guided start runs with ([`guided_run`]): the guide solvers, the initial guess,
     /// the iteration limit, and its measure, the kept cost where a test of later starts applies
     /// ([`crate::Settings::portfolio_abandon`], `portfolio_stall`).
@@ -637,9 +763,10 @@ where
             barrier_mu_init: None,
             flip: match start {
                 Guided::Flip(j) => Some(j),
-                Guided::Mirror => None,
+                Guided::Mirror | Guided::Plan => None,
             },
             mirror: start == Guided::Mirror,
+            plan: start == Guided::Plan,
             iterations: r.iterations,
             cost: r.cost,
             max_violation: r.max_violation_tightened,
@@ -666,6 +793,9 @@ where
             *discarded_qps += r.qp;
         }
         self.portfolio.starts.push(entry);
+        if start == Guided::Plan {
+            self.portfolio.flips.plan_kept = keep;
+        }
         keep
     }
 

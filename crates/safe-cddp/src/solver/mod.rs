@@ -694,6 +694,7 @@ where
                 barrier_mu_init,
                 flip: None,
                 mirror: false,
+                plan: false,
                 iterations: r.iterations,
                 cost: r.cost,
                 max_violation: r.max_violation_tightened,

@@ -10,8 +10,8 @@
 //! "The planned start").
 //!
 //! The path is exact for discs: the shortest path among disjoint or overlapping discs is made of
-//! segments tangent to them and arcs of their boundaries (the tangent graph, or visibility graph
-//! of discs; Latombe 1991, ch. 4), so Dijkstra's algorithm on the tangent points of the start,
+//! segments tangent to them and arcs of their boundaries (the tangent graph of Liu and Arimoto
+//! (1992), a visibility graph for curved obstacles), so Dijkstra's algorithm on the tangent points of the start,
 //! the goal and every pair of discs, joined by free tangent segments and by free arcs between a
 //! disc's neighbouring tangent points, finds it.
 

@@ -189,8 +189,8 @@ pub struct Settings {
     /// augmented Lagrangian's and the barrier's) run at once, the second on a sibling solver on
     /// another thread, built at the first such solve (it allocates its own workspace then; each
     /// such solve starts a scoped thread); the third start and the polish follow on the calling
-    /// thread. The guided starts ([`Settings::portfolio_flip`], [`Settings::portfolio_mirror`])
-    /// then run two at a time on two guide solvers, each measured against the solution kept
+    /// thread. The guided starts ([`Settings::portfolio_flip`], [`Settings::portfolio_plan`],
+    /// [`Settings::portfolio_mirror`]) then run two at a time on two guide solvers, each measured against the solution kept
     /// before the pair ([`Settings::portfolio_abandon`], [`Settings::portfolio_stall`]); where
     /// the first of a pair is kept, the second runs again against the new kept cost, as it would
     /// after it. Every start is the same computation as with 1, so the solution, iterations and
@@ -257,11 +257,18 @@ pub struct Settings {
     /// path wraps round on the other side: one target per such obstacle, a half-plane just
     /// outside it at the path's contact, at the time the path reaches it at a steady speed, for
     /// this many iterations, then without them to its own optimum, kept when better. Every start
-    /// before it picks its sides on the way in, near its initial guess; the shortest path's are
-    /// the peers' optimum's on 14 of the 25 problems of the family replays of 18 seeds where
-    /// ddpkit ended more than 5 % above it (`bench/peers/README.md`, "The planned start"). Only
-    /// where the state constraints include discs ([`crate::Constraint::planar_disc`]), all on
-    /// the same two state entries and of one relative degree. `None`: no such start.
+    /// before it picks its sides on the way in, near its initial guess; the shortest path's sides
+    /// are the peers' optimum's on 14 of the 25 problems of the family replays of 18 seeds where
+    /// ddpkit ended more than 5 % above it. A flipped start to the far side of an obstacle this
+    /// start already steers to the other side is left out (the next binding row's takes its
+    /// place), and where this start is kept the mirrored start is left out. With the default
+    /// `Some(5)` the replays of seeds 1-12 match the peers' best on 2441 of 2520 problems
+    /// instead of 2438 and end more than 5 % above it on 9 instead of 11, seeds 13-18 (never
+    /// tuned on) on 1211 of 1260 instead of 1205 and 9 instead of 14, for the same iterations
+    /// (1.002x, 1.000x) and 0.989x the time per problem (`bench/peers/README.md`, "The planned
+    /// start"). Only where the state constraints include discs
+    /// ([`crate::Constraint::planar_disc`]), all on the same two state entries and of one
+    /// relative degree. `None`: no such start.
     pub portfolio_plan: Option<usize>,
     /// [`WarmUp::Portfolio`]: a start from the initial guess after the first two (the third
     /// start, each flipped start) stops, discarded ([`StartOutcome::Stalled`]), once this many
@@ -277,7 +284,8 @@ pub struct Settings {
     /// and first rises above its cost (at 200 iterations one polish was stopped that would have
     /// come down below it). `0`: none stop.
     pub portfolio_stall: usize,
-    /// [`WarmUp::Portfolio`]: a flipped or the mirrored start ([`Settings::portfolio_flip`],
+    /// [`WarmUp::Portfolio`]: a flipped, the planned or the mirrored start
+    /// ([`Settings::portfolio_flip`], [`Settings::portfolio_plan`],
     /// [`Settings::portfolio_mirror`]) stops, discarded ([`StartOutcome::Abandoned`]), once it
     /// is past [`Settings::portfolio_abandon_after`] iterations after its guided ones at a
     /// feasible trajectory whose cost is more than this fraction above the kept solution's. Its

@@ -26,6 +26,16 @@
 //! them. The mirrored start ([`crate::Settings::portfolio_mirror`]) follows the flipped ones:
 //! the guide row then has a target for every state row at once, each at the row's own most
 //! active time on the kept trajectory (binding or not), built as a flipped start's.
+//!
+//! Both kinds read their sides from the kept solution, so both stay near the sides the earlier
+//! starts chose. The planned start ([`crate::Settings::portfolio_plan`]), before the flipped ones,
+//! reads them from the scene instead: the shortest path of the position among the obstacles that
+//! are discs ([`crate::plan`]), whose sides are the peers' optimum's on more than half of the
+//! family's misses. Its guide row has one target per disc the path wraps round, a half-plane just
+//! outside the disc at the contact, at the time the path reaches it at a steady speed. It runs
+//! only where the kept solution passes one of those discs on the other side; the flipped starts
+//! to sides it already steers to are then left out, and a kept planned start leaves out the
+//! mirrored start.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;

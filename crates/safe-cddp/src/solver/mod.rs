@@ -203,8 +203,8 @@ where
     /// The kept solution's cost, which the running start must be able to reach
     /// ([`Settings::portfolio_stall`], [`Settings::portfolio_abandon`]; `None`: no such test).
     beat: Option<f64>,
-    /// The running start is a flipped or the mirrored one past its guided iterations, which
-    /// [`Settings::portfolio_abandon`] may stop.
+    /// The running start is a guided one (flipped, planned or mirrored) past its guided
+    /// iterations, which [`Settings::portfolio_abandon`] may stop.
     guided: bool,
     /// The running start stopped for that ([`StartOutcome::Stalled`] or
     /// [`StartOutcome::Abandoned`]).

@@ -11,9 +11,9 @@
 //!
 //! The path is exact for discs: the shortest path among disjoint or overlapping discs is made of
 //! segments tangent to them and arcs of their boundaries (the tangent graph of Liu and Arimoto
-//! (1992), a visibility graph for curved obstacles), so Dijkstra's algorithm on the tangent points of the start,
-//! the goal and every pair of discs, joined by free tangent segments and by free arcs between a
-//! disc's neighbouring tangent points, finds it.
+//! (1992), a visibility graph for curved obstacles), so Dijkstra's algorithm on the tangent
+//! points of the start, the goal and every pair of discs, joined by free tangent segments and by
+//! free arcs between a disc's neighbouring tangent points, finds it.
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -62,8 +62,9 @@ pub struct PlanarPath {
     pub points: Vec<[f64; 2]>,
 }
 
-/// Two points closer than this, relative to the scene's size, are one; a segment within it of a
-/// disc's boundary touches it (tangent segments end on their discs).
+/// The tolerance, relative to the scene's size: a point less than this inside a disc's boundary
+/// counts as outside, and a segment that comes no nearer the centre than the radius minus this
+/// touches the disc without entering it (tangent segments end on their discs).
 const EPS: f64 = 1e-9;
 /// The most discs a path is planned among: the tangent graph has `O(n^2)` nodes and its
 /// segments are tested against every disc, `O(n^3)` in all.
@@ -138,7 +139,7 @@ pub fn shortest_path(start: [f64; 2], goal: [f64; 2], discs: &[Disc]) -> Option<
         || !finite(goal)
         || discs
             .iter()
-            .any(|d| !finite(d.center) || d.radius.is_nan() || d.radius < 0.0 || d.radius.is_infinite())
+            .any(|d| !finite(d.center) || !d.radius.is_finite() || d.radius < 0.0)
     {
         return None;
     }

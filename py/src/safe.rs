@@ -1413,8 +1413,10 @@ pub struct SafeSolution {
     /// barrier weight, else ``None``), ``flip`` (for a flipped start, ``portfolio_flip``: the
     /// index of the constraint whose other side it was steered to, else ``None``), ``mirror``
     /// (``True`` for the start steered to the other side of every obstacle, ``portfolio_mirror``),
-    /// ``plan`` (``True`` for the start steered round the obstacles on the sides of their shortest
-    /// path, ``portfolio_plan``), ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
+    /// ``plan`` (``True`` for the starts steered round the obstacles on the sides of their
+    /// shortest path, ``portfolio_plan``), ``from_kept`` (``True`` for a start from the kept
+    /// solution's controls rather than the initial guess: the polish and the second planned
+    /// start), ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
     /// on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its homotopy on the
     /// kept solution's sides), ``"stalled"`` (stopped where, at the rate its cost fell, it
     /// could not reach the kept cost within its iterations) or ``"abandoned"`` (stopped at a
@@ -1523,6 +1525,7 @@ impl SafeSolution {
             d.set_item("flip", st.flip)?;
             d.set_item("mirror", st.mirror)?;
             d.set_item("plan", st.plan)?;
+            d.set_item("from_kept", st.from_kept)?;
             d.set_item("iterations", st.iterations)?;
             d.set_item("cost", st.cost)?;
             d.set_item("max_violation", st.max_violation)?;

@@ -308,7 +308,7 @@ def test_a_planned_start_takes_the_sides_of_the_shortest_path() -> None:
     assert after.status == "converged" and after.cost <= fatrop * (1 + 1e-6)
     kept = [st for st in after.starts if st["outcome"] == "kept"]
     assert len(kept) == 1 and kept[0]["plan"] is True and kept[0]["flip"] is None
-    assert not kept[0]["mirror"]
+    assert not kept[0]["mirror"] and kept[0]["from_kept"] is False
     # Kept, it leaves the mirrored start out.
     assert sum(st["plan"] for st in after.starts) == 1 and not any(st["mirror"] for st in after.starts)
     assert family.start_name(kept[0]) == "plan"

@@ -829,9 +829,12 @@ pub struct StartReport {
     /// The mirrored start ([`Settings::portfolio_mirror`]): steered to the other side of every
     /// state row at once.
     pub mirror: bool,
-    /// The planned start ([`Settings::portfolio_plan`]): steered round the obstacles on the
-    /// sides of the shortest path among them.
+    /// A planned start ([`Settings::portfolio_plan`]): steered round the obstacles on the sides
+    /// of the shortest path among them.
     pub plan: bool,
+    /// It began from the kept solution's controls rather than the initial guess: the polish, and
+    /// the second planned start ([`Settings::portfolio_plan`]).
+    pub from_kept: bool,
     /// Accepted steps.
     pub iterations: usize,
     /// Cost where it ended.
@@ -846,13 +849,18 @@ pub struct StartReport {
 
 impl StartReport {
     /// `"augmented_lagrangian"`, `"barrier"`, `"barrier (mu_init 3.0e-3)"`, `"polish"`,
-    /// `"flip (constraint 2)"`, `"mirror"` or `"plan"`.
+    /// `"flip (constraint 2)"`, `"mirror"`, `"plan"` or `"plan (from the kept solution)"`.
     pub fn name(&self) -> String {
         if self.mirror {
             return "mirror".to_string();
         }
         if self.plan {
-            return "plan".to_string();
+            let from = if self.from_kept {
+                " (from the kept solution)"
+            } else {
+                ""
+            };
+            return format!("plan{from}");
         }
         if let Some(j) = self.flip {
             return format!("flip (constraint {j})");

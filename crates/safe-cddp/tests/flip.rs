@@ -181,6 +181,10 @@ fn a_flipped_start_kept_over_a_polished_solution_gives_both_up() {
         "{}",
         before.table()
     );
+    // The polish, and only it of these starts, goes on from the kept solution's controls.
+    for s in &before.starts {
+        assert_eq!(s.from_kept, s.warm_up == WarmUp::None, "{}", before.table());
+    }
     assert!(after.cost < before.cost && after.max_violation <= 1e-6);
     let kept = after.starts.iter().find(|s| s.outcome == StartOutcome::Kept).unwrap();
     assert!(kept.flip.is_some(), "{}", after.table());

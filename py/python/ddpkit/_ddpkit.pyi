@@ -1402,10 +1402,11 @@ class SafeCddpSolver:
     steered round the obstacles on the sides of the shortest path of the position among them
     (a tangent-graph path from the initial position to the end of the obstacle-free optimum,
     among the ``Circle`` constraints), for ``portfolio_plan`` iterations, then lifted, where the
-    kept solution passes one of the circles that path wraps round on its other side; a flipped
-    start to a side it already steers to is left out, and where it is kept the mirrored start
-    is too (``None``: none). On the benchmark family's replays of 18 seeds it takes the misses
-    by more than 5 % from 25 to 18 for about the same iterations.
+    kept solution passes one of the circles that path wraps round on its other side, and where
+    it is not kept one more steered the same way from the kept solution's controls; a flipped
+    start to a side they already steer to is left out, and where the first is kept the mirrored
+    start is too (``None``: none). On the benchmark family's replays of 18 seeds they take the
+    misses by more than 5 % from 25 to 14 for 1.003x-1.006x the time per problem.
     ``portfolio_abandon``: a flipped, the planned or the mirrored start stops, discarded, once past its 45th
     iteration after the guided ones it is on a feasible path that costs more than this fraction
     above the kept solution: its guide has taken it round the other side (``None``: none stop;
@@ -1541,9 +1542,10 @@ class SafeSolution:
         the KKT/QP iterations from the kept solution), ``barrier_mu_init`` (the third start's
         initial barrier weight, else ``None``), ``flip`` (a flipped start's constraint index,
         ``portfolio_flip``, else ``None``), ``mirror`` (``True`` for the start steered to the
-        other side of every obstacle, ``portfolio_mirror``), ``plan`` (``True`` for the start
+        other side of every obstacle, ``portfolio_mirror``), ``plan`` (``True`` for the starts
         steered round the obstacles on the sides of their shortest path, ``portfolio_plan``),
-        ``iterations``, ``cost``, ``max_violation``
+        ``from_kept`` (``True`` for a start from the kept solution's controls rather than the
+        initial guess: the polish and the second planned start), ``iterations``, ``cost``, ``max_violation``
         (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the
         polish went on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its
         homotopy on the kept solution's sides), ``"stalled"`` (stopped where, at the rate its

@@ -173,7 +173,10 @@ where
 enum Guided {
     Flip(usize),
     Mirror,
-    Plan,
+    /// The planned start: from the initial guess, or (`kept`) from the kept solution's controls.
+    Plan {
+        kept: bool,
+    },
 }
 
 /// A solver of guided starts and its guide row.
@@ -185,6 +188,17 @@ where
     /// element), on the same row layout; built at the first guided start it runs.
     solver: Option<(usize, Box<SafeCddpSolver<NX, NU>>)>,
     row: Arc<GuideRow>,
+}
+
+/// The controls a guided start may begin from: the initial guess (every guided start but one),
+/// or the solution kept before it (the second planned start).
+#[derive(Clone, Copy)]
+struct Initial<'a, NU: Dim>
+where
+    DefaultAllocator: Alloc<NU, NU>,
+{
+    guess: &'a [VectorN<NU>],
+    kept: &'a [VectorN<NU>],
 }
 
 /// A guided start ready to run on a guide: where it is steered, and its guided iterations.
@@ -475,22 +489,28 @@ where
         let mut queued = 0;
         let mut kept_any = false;
         let mut started = 0;
-        // The planned start first: a flipped start to a side it already steers to is left out
-        // (counted neither as run nor towards `portfolio_flip_starts`), and where it is kept the
-        // mirrored start is too.
+        // The planned start first, from the initial guess and alone (what follows hangs on
+        // whether it is kept); where it is not, the second from the kept solution's controls. A
+        // flipped start to a side they already steer to is left out (counted neither as run nor
+        // towards `portfolio_flip_starts`), and where the first is kept the mirrored start is too.
         let f = &mut self.portfolio.flips;
         f.plan_kept = false;
         f.plan_flipped.clear();
         if let Some(guide_iterations) = s.portfolio_plan {
-            if self.plan_guide(queued, problem)? {
-                ready[queued] = Some(Ready {
-                    start: Guided::Plan,
+            if self.plan_guide(0, problem)? {
+                let plan = |kept| Ready {
+                    start: Guided::Plan { kept },
                     guide_iterations,
-                });
-                queued += 1;
-                if queued == width {
-                    kept_any |= self.run_ready(problem, &mut ready, discarded, discarded_qps)?;
-                    queued = 0;
+                };
+                let mut first = [Some(plan(false)), None];
+                kept_any |= self.run_ready(problem, &mut first, discarded, discarded_qps)?;
+                if !self.portfolio.flips.plan_kept {
+                    ready[0] = Some(plan(true));
+                    queued = 1;
+                    if queued == width {
+                        kept_any |= self.run_ready(problem, &mut ready, discarded, discarded_qps)?;
+                        queued = 0;
+                    }
                 }
             }
         }
@@ -524,18 +544,6 @@ where
             }
         }
         if let Some(guide_iterations) = s.portfolio_mirror {
-            // Whether the mirrored start runs hangs on whether the planned start was kept: with
-            // two threads, one still waiting for its pair runs first, as on one thread.
-            if matches!(
-                ready[0],
-                Some(Ready {
-                    start: Guided::Plan,
-                    ..
-                })
-            ) {
-                kept_any |= self.run_ready(problem, &mut ready, discarded, discarded_qps)?;
-                queued = 0;
-            }
             if !self.portfolio.flips.plan_kept && self.mirror_guide(queued, problem)? {
                 ready[queued] = Some(Ready {
                     start: Guided::Mirror,
@@ -569,11 +577,11 @@ where
             self.run_guided(0, first, problem)?;
             return Ok(self.keep_guided(0, first.start, discarded, discarded_qps));
         };
-        let (guides, guess, max_iterations, beat) = self.guided_inputs();
+        let (guides, initial, max_iterations, beat) = self.guided_inputs();
         let [a, b] = guides;
         let (one, two) = std::thread::scope(|scope| {
-            let two = scope.spawn(|| guided_run(b, second, guess, max_iterations, beat, problem));
-            let one = guided_run(a, first, guess, max_iterations, beat, problem);
+            let two = scope.spawn(|| guided_run(b, second, initial, max_iterations, beat, problem));
+            let one = guided_run(a, first, initial, max_iterations, beat, problem);
             (one, two.join())
         });
         one?;
@@ -728,26 +736,26 @@ where
         Ok(true)
     }
 
-    /// What a guided start runs with ([`guided_run`]): the guide solvers, the initial guess,
-    /// the iteration limit, and its measure, the kept cost where a test of later starts applies
-    /// ([`crate::Settings::portfolio_abandon`], `portfolio_stall`).
+    /// What a guided start runs with ([`guided_run`]): the guide solvers, the controls it may
+    /// begin from, the iteration limit, and its measure, the kept cost where a test of later
+    /// starts applies ([`crate::Settings::portfolio_abandon`], `portfolio_stall`).
     #[allow(clippy::type_complexity)]
-    fn guided_inputs(&mut self) -> (&mut [Guide<NX, NU>; 2], &[VectorN<NU>], usize, Option<f64>) {
+    fn guided_inputs(&mut self) -> (&mut [Guide<NX, NU>; 2], Initial<'_, NU>, usize, Option<f64>) {
         let beat = self.settings.tests_later_starts().then_some(self.report.cost);
+        let n = self.core.n;
         let p = &mut self.portfolio;
-        (
-            &mut p.flips.guides,
-            &p.guess[..self.core.n],
-            self.settings.max_iterations,
-            beat,
-        )
+        let initial = Initial {
+            guess: &p.guess[..n],
+            kept: &p.best[..n],
+        };
+        (&mut p.flips.guides, initial, self.settings.max_iterations, beat)
     }
 
     /// Runs one guided start on guide solver `slot` (its targets set), measured against the
     /// kept cost ([`guided_run`]).
     fn run_guided(&mut self, slot: usize, ready: Ready, problem: &Problem<NX, NU>) -> Result<()> {
-        let (guides, guess, max_iterations, beat) = self.guided_inputs();
-        guided_run(&mut guides[slot], ready, guess, max_iterations, beat, problem)
+        let (guides, initial, max_iterations, beat) = self.guided_inputs();
+        guided_run(&mut guides[slot], ready, initial, max_iterations, beat, problem)
     }
 
     /// Whether the guided start just run on guide solver `slot` is kept: better than the kept
@@ -773,10 +781,11 @@ where
             barrier_mu_init: None,
             flip: match start {
                 Guided::Flip(j) => Some(j),
-                Guided::Mirror | Guided::Plan => None,
+                Guided::Mirror | Guided::Plan { .. } => None,
             },
             mirror: start == Guided::Mirror,
-            plan: start == Guided::Plan,
+            plan: matches!(start, Guided::Plan { .. }),
+            from_kept: start == Guided::Plan { kept: true },
             iterations: r.iterations,
             cost: r.cost,
             max_violation: r.max_violation_tightened,
@@ -803,7 +812,7 @@ where
             *discarded_qps += r.qp;
         }
         self.portfolio.starts.push(entry);
-        if start == Guided::Plan {
+        if start == (Guided::Plan { kept: false }) {
             self.portfolio.flips.plan_kept = keep;
         }
         keep
@@ -851,8 +860,8 @@ where
     }
 }
 
-/// One guided start on `guide` (its targets set): from the initial guess `guess` with the guide
-/// for its guided iterations, then with the guide lifted to its own optimum, still the
+/// One guided start on `guide` (its targets set): from the initial guess (the second planned
+/// start: from the kept solution's controls, `initial`) with the guide for its guided iterations, then with the guide lifted to its own optimum, still the
 /// augmented Lagrangian (not the barrier of a cold portfolio start) with the guided iterations'
 /// multipliers and penalty. With a kept cost `beat` it stops where it crawls above it
 /// (`Settings::portfolio_stall`) or ends up well above it (`Settings::portfolio_abandon`); the
@@ -860,7 +869,7 @@ where
 fn guided_run<NX: Dim, NU: Dim>(
     guide: &mut Guide<NX, NU>,
     ready: Ready,
-    guess: &[VectorN<NU>],
+    initial: Initial<'_, NU>,
     max_iterations: usize,
     beat: Option<f64>,
     problem: &Problem<NX, NU>,
@@ -868,6 +877,10 @@ fn guided_run<NX: Dim, NU: Dim>(
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
+    let guess = match ready.start {
+        Guided::Plan { kept: true } => initial.kept,
+        _ => initial.guess,
+    };
     let n = guess.len();
     let Some((_, solver)) = guide.solver.as_mut() else {
         return Ok(());

@@ -695,6 +695,7 @@ where
                 flip: None,
                 mirror: false,
                 plan: false,
+                from_kept: member.is_none(),
                 iterations: r.iterations,
                 cost: r.cost,
                 max_violation: r.max_violation_tightened,

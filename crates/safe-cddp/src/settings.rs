@@ -256,19 +256,21 @@ pub struct Settings {
     /// gate's obstacle-free solve ends), where the kept solution passes one of the obstacles that
     /// path wraps round on the other side: one target per such obstacle, a half-plane just
     /// outside it at the path's contact, at the time the path reaches it at a steady speed, for
-    /// this many iterations, then without them to its own optimum, kept when better. Every start
-    /// before it picks its sides on the way in, near its initial guess; the shortest path's sides
-    /// are the peers' optimum's on 14 of the 25 problems of the family replays of 18 seeds where
-    /// ddpkit ended more than 5 % above it. A flipped start to the far side of an obstacle this
-    /// start already steers to the other side is left out (the next binding row's takes its
-    /// place), and where this start is kept the mirrored start is left out. With the default
-    /// `Some(5)` the replays of seeds 1-12 match the peers' best on 2441 of 2520 problems
-    /// instead of 2438 and end more than 5 % above it on 9 instead of 11, seeds 13-18 (never
-    /// tuned on) on 1211 of 1260 instead of 1205 and 9 instead of 14, for the same iterations
-    /// (1.002x, 1.000x) and 0.989x the time per problem (`bench/peers/README.md`, "The planned
-    /// start"). Only where the state constraints include discs
+    /// this many iterations, then without them to its own optimum, kept when better. Where it is
+    /// not kept, a second start steered the same way from the kept solution's controls instead
+    /// of the initial guess (a car that heads for the path's side from rest may end far above
+    /// the kept cost). Every start before them picks its sides on the way in, near its initial
+    /// guess; the shortest path's sides are the peers' optimum's on 14 of the 25 problems of the
+    /// family replays of 18 seeds where ddpkit ended more than 5 % above it. A flipped start to
+    /// the far side of an obstacle these starts already steer to the other side is left out (the
+    /// next binding row's takes its place), and where the first is kept the mirrored start is
+    /// left out. With the default `Some(5)` the replays of seeds 1-12 match the peers' best on
+    /// 2444 of 2520 problems instead of 2438 and end more than 5 % above it on 8 instead of 11,
+    /// seeds 13-18 (never tuned on) on 1214 of 1260 instead of 1205 and 6 instead of 14, for
+    /// 1.02x-1.03x the iterations and about 1.00x the time per problem (`bench/peers/README.md`,
+    /// "The planned start"). Only where the state constraints include discs
     /// ([`crate::Constraint::planar_disc`]), all on the same two state entries and of one
-    /// relative degree. `None`: no such start.
+    /// relative degree. `None`: no such starts.
     pub portfolio_plan: Option<usize>,
     /// [`WarmUp::Portfolio`]: a start from the initial guess after the first two (the third
     /// start, each flipped start) stops, discarded ([`StartOutcome::Stalled`]), once this many

@@ -33,9 +33,10 @@
 //! are discs ([`crate::plan`]), whose sides are the peers' optimum's on more than half of the
 //! family's misses. Its guide row has one target per disc the path wraps round, a half-plane just
 //! outside the disc at the contact, at the time the path reaches it at a steady speed. It runs
-//! only where the kept solution passes one of those discs on the other side; the flipped starts
-//! to sides it already steers to are then left out, and a kept planned start leaves out the
-//! mirrored start.
+//! only where the kept solution passes one of those discs on the other side, from the initial
+//! guess and, where that one is not kept, once more from the kept solution's controls; the
+//! flipped starts to sides they already steer to are then left out, and a kept first planned
+//! start leaves out the mirrored start.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -226,9 +227,10 @@ where
     a: Vec<f64>,
     /// Scratch of the planned start: `(constraint, disc)` of each disc.
     plan_discs: Vec<(usize, crate::plan::Disc)>,
-    /// The constraints the planned start steers to the other side of the kept solution's.
+    /// The constraints the planned starts steer to the other side of the kept solution's.
     plan_flipped: Vec<usize>,
-    /// Whether the planned start of this solve was kept when it ended.
+    /// Whether the first planned start of this solve (from the initial guess) was kept when it
+    /// ended.
     plan_kept: bool,
 }
 
@@ -274,7 +276,7 @@ const EXIT_STEPS: usize = 200;
 /// The guide's target: this factor times the distance to the first point past the flipped row
 /// where no state row is violated (its far boundary, or the cluster's).
 const BEYOND: f64 = 1.1;
-/// The planned start's targets lie this fraction of the disc's radius outside it.
+/// The planned starts' targets lie this fraction of the disc's radius outside it.
 const PLAN_CLEARANCE: f64 = 0.1;
 
 /// Whether `x` at time `t` violates a row of a state-only constraint (`g` is scratch for the

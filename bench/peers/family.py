@@ -376,7 +376,7 @@ def start_counts(records: list[dict[str, Any]]) -> tuple[dict[str, int], dict[st
 def start_name(st: dict[str, Any]) -> str:
     """A portfolio start's name: its warm-up, the third start's barrier weight, `flip` for the
     starts steered to a binding obstacle's far side (`portfolio_flip`), `mirror` for the one
-    steered to the far side of every obstacle (`portfolio_mirror`), or `plan` for the one steered
+    steered to the far side of every obstacle (`portfolio_mirror`), or `plan` for the ones steered
     round them on the sides of their shortest path (`portfolio_plan`)."""
     if st.get("flip") is not None:
         return "flip"

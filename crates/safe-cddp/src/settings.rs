@@ -190,10 +190,11 @@ pub struct Settings {
     /// another thread, built at the first such solve (it allocates its own workspace then; each
     /// such solve starts a scoped thread); the third start and the polish follow on the calling
     /// thread. The guided starts ([`Settings::portfolio_flip`], [`Settings::portfolio_plan`],
-    /// [`Settings::portfolio_mirror`]) then run two at a time on two guide solvers, each measured against the solution kept
-    /// before the pair ([`Settings::portfolio_abandon`], [`Settings::portfolio_stall`]); where
-    /// the first of a pair is kept, the second runs again against the new kept cost, as it would
-    /// after it. Every start is the same computation as with 1, so the solution, iterations and
+    /// [`Settings::portfolio_mirror`]) then run two at a time on two guide solvers (but the
+    /// first planned start, on which the next starts hang), each measured against the solution
+    /// kept before the pair ([`Settings::portfolio_abandon`], [`Settings::portfolio_stall`]);
+    /// where the first of a pair is kept, the second runs again against the new kept cost, as it
+    /// would after it. Every start is the same computation as with 1, so the solution, iterations and
     /// status are too; only the wall time differs (0.80x with the polish on
     /// `bench/peers/family.py` with the first two starts at once; the guided starts in pairs
     /// take the family replays to 0.91x-0.96x of that). 1 (the default): one thread.
@@ -286,7 +287,7 @@ pub struct Settings {
     /// and first rises above its cost (at 200 iterations one polish was stopped that would have
     /// come down below it). `0`: none stop.
     pub portfolio_stall: usize,
-    /// [`WarmUp::Portfolio`]: a flipped, the planned or the mirrored start
+    /// [`WarmUp::Portfolio`]: a flipped, a planned or the mirrored start
     /// ([`Settings::portfolio_flip`], [`Settings::portfolio_plan`],
     /// [`Settings::portfolio_mirror`]) stops, discarded ([`StartOutcome::Abandoned`]), once it
     /// is past [`Settings::portfolio_abandon_after`] iterations after its guided ones at a
@@ -876,8 +877,8 @@ impl StartReport {
 }
 
 /// Most starts of one [`WarmUp::Portfolio`] solve besides the flipped ones (two, the third, the
-/// polish, the planned and the mirrored start).
-pub(crate) const MAX_STARTS: usize = 6;
+/// polish, the two planned starts and the mirrored start).
+pub(crate) const MAX_STARTS: usize = 7;
 
 /// Outcome and statistics of a solve. Lives in the solver; `log` is allocated once.
 #[derive(Debug, Clone)]

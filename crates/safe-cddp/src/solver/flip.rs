@@ -863,9 +863,9 @@ where
 }
 
 /// One guided start on `guide` (its targets set): from the initial guess (the second planned
-/// start: from the kept solution's controls, `initial`) with the guide for its guided iterations, then with the guide lifted to its own optimum, still the
-/// augmented Lagrangian (not the barrier of a cold portfolio start) with the guided iterations'
-/// multipliers and penalty. With a kept cost `beat` it stops where it crawls above it
+/// start: from the kept solution's controls; both in `initial`) with the guide for its guided
+/// iterations, then with the guide lifted to its own optimum, still the augmented Lagrangian (not
+/// the barrier of a cold portfolio start) with the guided iterations' multipliers and penalty. With a kept cost `beat` it stops where it crawls above it
 /// (`Settings::portfolio_stall`) or ends up well above it (`Settings::portfolio_abandon`); the
 /// guide solver's report and `portfolio.stopped` then tell.
 fn guided_run<NX: Dim, NU: Dim>(

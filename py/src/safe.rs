@@ -916,24 +916,20 @@ fn settings_from(
                 format!("must be at least 1 (portfolio_flip=None: no flipped starts), got {portfolio_flip_starts}"),
             )
         })?;
-    let portfolio_mirror = match portfolio_mirror {
-        None => None,
-        Some(v) => Some(usize::try_from(v).ok().filter(|&v| v >= 1).ok_or_else(|| {
-            invalid(
-                "portfolio_mirror",
-                format!("must be at least 1 iteration, or None for no mirrored start, got {v}"),
-            )
-        })?),
+    // A guided start's iterations: at least 1, or `None` for no such start.
+    let guided = |field: &str, start: &str, v: Option<i64>| -> CoreResult<Option<usize>> {
+        v.map(|v| {
+            usize::try_from(v).ok().filter(|&v| v >= 1).ok_or_else(|| {
+                invalid(
+                    field,
+                    format!("must be at least 1 iteration, or None for no {start} start, got {v}"),
+                )
+            })
+        })
+        .transpose()
     };
-    let portfolio_plan = match portfolio_plan {
-        None => None,
-        Some(v) => Some(usize::try_from(v).ok().filter(|&v| v >= 1).ok_or_else(|| {
-            invalid(
-                "portfolio_plan",
-                format!("must be at least 1 iteration, or None for no planned start, got {v}"),
-            )
-        })?),
-    };
+    let portfolio_mirror = guided("portfolio_mirror", "mirrored", portfolio_mirror)?;
+    let portfolio_plan = guided("portfolio_plan", "planned", portfolio_plan)?;
     let s = Settings {
         method,
         max_iterations,

@@ -21,14 +21,15 @@ fn problem(json: &str) -> (ddp_core::Problem<U4, U2>, Constraints) {
     BenchmarkProblem::from_json(json).unwrap().car_or_point().unwrap()
 }
 
-fn solve_with(constraints: Constraints, settings: Settings) -> Report {
-    let (problem, _) = problem(POINT_S17_I28);
+/// Solves problem `json` with `constraints` (its own circles, or stand-ins for them).
+fn solve_with(json: &str, constraints: Constraints, settings: Settings) -> Report {
+    let (problem, _) = problem(json);
     let mut s = SafeCddpSolver::new(&problem, constraints, settings).unwrap();
     s.solve(&problem).unwrap().clone()
 }
 
-fn solve(settings: Settings) -> Report {
-    solve_with(problem(POINT_S17_I28).1, settings)
+fn solve(json: &str, settings: Settings) -> Report {
+    solve_with(json, problem(json).1, settings)
 }
 
 fn no_plan() -> Settings {
@@ -40,8 +41,8 @@ fn no_plan() -> Settings {
 
 #[test]
 fn a_planned_start_takes_the_sides_of_the_shortest_path() {
-    let before = solve(no_plan());
-    let after = solve(Settings::default());
+    let before = solve(POINT_S17_I28, no_plan());
+    let after = solve(POINT_S17_I28, Settings::default());
     assert_eq!((before.status, after.status), (Status::Converged, Status::Converged));
     assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
     assert!(before.cost > 10.0 * POINT_S17_I28_FATROP, "without: {}", before.cost);
@@ -94,16 +95,10 @@ fn a_planned_start_takes_the_sides_of_the_shortest_path() {
 const CAR_S17_I11: &str = r#"{"name": "car-s17-i11-a0", "model": "car", "dt": 0.0531, "N": 142, "x0": [0.0, 0.0, 0.1197, 0.0], "cost": {"kind": "quad_goal", "x_goal": [4.4819, -0.6684, -0.058, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[1.8324, -0.5879, 0.2761], [1.7304, -0.0979, 0.3304], [0.6, 0.0318, 0.3394]]}"#;
 const CAR_S17_I11_FATROP: f64 = 1.1953943586071991;
 
-fn solve_json(json: &str, settings: Settings) -> Report {
-    let (problem, constraints) = problem(json);
-    let mut s = SafeCddpSolver::new(&problem, constraints, settings).unwrap();
-    s.solve(&problem).unwrap().clone()
-}
-
 #[test]
 fn a_second_planned_start_from_the_kept_controls_follows_one_not_kept() {
-    let before = solve_json(CAR_S17_I11, no_plan());
-    let after = solve_json(CAR_S17_I11, Settings::default());
+    let before = solve(CAR_S17_I11, no_plan());
+    let after = solve(CAR_S17_I11, Settings::default());
     assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
     assert!(before.cost > 1.2 * CAR_S17_I11_FATROP, "without: {}", before.cost);
     assert!(
@@ -128,8 +123,8 @@ fn a_second_planned_start_from_the_kept_controls_follows_one_not_kept() {
 #[test]
 fn two_threads_run_the_planned_starts_as_one_thread_would() {
     for json in [POINT_S17_I28, CAR_S17_I11] {
-        let one = solve_json(json, Settings::default());
-        let two = solve_json(
+        let one = solve(json, Settings::default());
+        let two = solve(
             json,
             Settings {
                 portfolio_threads: 2,
@@ -199,10 +194,10 @@ fn only_constraints_that_are_discs_are_planned_round() {
         .map(|c| Arc::new(Hidden(c.clone())) as Arc<dyn Constraint<U4, U2>>)
         .collect();
     assert!(hidden[0].planar_disc().is_none());
-    let r = solve_with(hidden, Settings::default());
+    let r = solve_with(POINT_S17_I28, hidden, Settings::default());
     assert!(!r.starts.iter().any(|s| s.plan), "{}", r.table());
     // The same computation as without the planned start.
-    let before = solve(no_plan());
+    let before = solve(POINT_S17_I28, no_plan());
     assert_eq!(r.cost.to_bits(), before.cost.to_bits());
     assert_eq!(r.starts, before.starts);
 }

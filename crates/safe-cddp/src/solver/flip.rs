@@ -225,8 +225,9 @@ where
     /// Scratch: one constraint's values; the guide's `a`.
     g: Vec<f64>,
     a: Vec<f64>,
-    /// Scratch of the planned start: `(constraint, disc)` of each disc.
-    plan_discs: Vec<(usize, crate::plan::Disc)>,
+    /// Scratch of the planned start: each disc, and the constraint it is.
+    plan_discs: Vec<crate::plan::Disc>,
+    plan_constraints: Vec<usize>,
     /// The constraints the planned starts steer to the other side of the kept solution's.
     plan_flipped: Vec<usize>,
     /// Whether the first planned start of this solve (from the initial guess) was kept when it
@@ -250,6 +251,7 @@ where
             g: vec![0.0; max_dim.max(1)],
             a: vec![0.0; dims.nx()],
             plan_discs: Vec::with_capacity(state_rows),
+            plan_constraints: Vec::with_capacity(state_rows),
             plan_flipped: Vec::with_capacity(state_rows),
             plan_kept: false,
         }
@@ -674,6 +676,7 @@ where
         let f = &mut self.portfolio.flips;
         f.guides[guide_slot].row.clear();
         f.plan_discs.clear();
+        f.plan_constraints.clear();
         let (mut indices, mut degree) = (None, None);
         for (j, (c, slot)) in self.constraints.iter().zip(&self.rows.slots).enumerate() {
             if slot.mixed || slot.dim == 0 {
@@ -685,7 +688,8 @@ where
             if *indices.get_or_insert(d.indices) != d.indices || *degree.get_or_insert(slot.degree) != slot.degree {
                 return Ok(false);
             }
-            f.plan_discs.push((j, d.disc));
+            f.plan_discs.push(d.disc);
+            f.plan_constraints.push(j);
         }
         let (Some([i0, i1]), Some(degree)) = (indices, degree) else {
             return Ok(false);
@@ -699,8 +703,8 @@ where
         };
         let xs = &self.core.traj.xs[..=n];
         let start = [xs[0][i0], xs[0][i1]];
-        let discs: Vec<crate::plan::Disc> = f.plan_discs.iter().map(|&(_, d)| d).collect();
-        let Some(path) = crate::plan::shortest_path(start, end, &discs) else {
+        let discs = &f.plan_discs;
+        let Some(path) = crate::plan::shortest_path(start, end, discs) else {
             return Ok(false);
         };
         // The kept solution already on the path's side of every disc it wraps round: nothing new.
@@ -709,7 +713,7 @@ where
             let planned = crate::plan::winding(path.points.iter().copied(), center);
             let kept = crate::plan::winding(xs.iter().map(|x| [x[i0], x[i1]]), center);
             if planned * kept < 0.0 {
-                f.plan_flipped.push(f.plan_discs[c.disc].0);
+                f.plan_flipped.push(f.plan_constraints[c.disc]);
             }
         }
         if f.plan_flipped.is_empty() || path.length <= 0.0 {

@@ -168,6 +168,12 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "kept cost (the default before 2026-12-07)",
     )
     ap.add_argument(
+        "--no-dual-bound",
+        action="store_true",
+        help="ddpkit with SafeCddpSolver(portfolio_dual_bound=None): later starts run on where their augmented "
+        "Lagrangian's dual bound is above the kept cost (the default before 2026-12-07, late)",
+    )
+    ap.add_argument(
         "--portfolio-threads",
         type=int,
         default=1,
@@ -205,6 +211,8 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
         options["portfolio_plan"] = None
     if args.no_abandon:
         options["portfolio_abandon"] = None
+    if args.no_dual_bound:
+        options["portfolio_dual_bound"] = None
     if args.apart is not None:
         options["portfolio_apart"] = args.apart
     if args.barrier_funnel is not None:

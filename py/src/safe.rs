@@ -829,6 +829,7 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("portfolio_mirror", s.portfolio_mirror)?;
     d.set_item("portfolio_plan", s.portfolio_plan)?;
     d.set_item("portfolio_abandon", s.portfolio_abandon)?;
+    d.set_item("portfolio_dual_bound", s.portfolio_dual_bound)?;
     d.set_item(
         "barrier_funnel",
         s.barrier_funnel.is_finite().then_some(s.barrier_funnel),
@@ -869,6 +870,7 @@ fn settings_from(
     portfolio_mirror: Option<i64>,
     portfolio_plan: Option<i64>,
     portfolio_abandon: Option<f64>,
+    portfolio_dual_bound: Option<f64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -947,6 +949,7 @@ fn settings_from(
         portfolio_mirror,
         portfolio_plan,
         portfolio_abandon,
+        portfolio_dual_bound,
         // `None`: no limit.
         barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
         barrier_mu_init,
@@ -1169,6 +1172,7 @@ impl SafeCddpSolver {
                         portfolio_mirror = default_mirror(),
                         portfolio_plan = default_plan(),
                         portfolio_abandon = Settings::default().portfolio_abandon,
+                        portfolio_dual_bound = Settings::default().portfolio_dual_bound,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -1178,7 +1182,7 @@ impl SafeCddpSolver {
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, portfolio_dual_bound=0.01, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
     )]
     #[allow(clippy::too_many_arguments)]
@@ -1202,6 +1206,7 @@ impl SafeCddpSolver {
         #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
         #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_plan: Option<i64>,
         portfolio_abandon: Option<f64>,
+        portfolio_dual_bound: Option<f64>,
         barrier_funnel: Option<f64>,
         barrier_mu_init: f64,
         barrier_relaxation: f64,
@@ -1225,6 +1230,7 @@ impl SafeCddpSolver {
             portfolio_mirror,
             portfolio_plan,
             portfolio_abandon,
+            portfolio_dual_bound,
             barrier_funnel,
             barrier_mu_init,
             barrier_relaxation,
@@ -1415,8 +1421,9 @@ pub struct SafeSolution {
     /// start), ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
     /// on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its homotopy on the
     /// kept solution's sides), ``"stalled"`` (stopped where, at the rate its cost fell, it
-    /// could not reach the kept cost within its iterations) or ``"abandoned"`` (stopped at a
-    /// feasible path more than ``portfolio_abandon`` above the kept cost).
+    /// could not reach the kept cost within its iterations) or ``"abandoned"`` (stopped more
+    /// than ``portfolio_abandon`` above the kept cost, or where its dual bound was more than
+    /// ``portfolio_dual_bound`` above it).
     #[pyo3(get)]
     starts: Py<PyList>,
     table: Table,
@@ -1728,6 +1735,7 @@ impl Mpc {
             default_mirror(),
             default_plan(),
             d.portfolio_abandon,
+            d.portfolio_dual_bound,
             Some(d.barrier_funnel),
             d.barrier_mu_init,
             d.barrier_relaxation,
@@ -2040,6 +2048,7 @@ where
                         portfolio_mirror = default_mirror(),
                         portfolio_plan = default_plan(),
                         portfolio_abandon = Settings::default().portfolio_abandon,
+                        portfolio_dual_bound = Settings::default().portfolio_dual_bound,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -2048,7 +2057,7 @@ where
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, portfolio_dual_bound=0.01, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -2074,6 +2083,7 @@ fn solve_batch_safe(
     #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_mirror: Option<i64>,
     #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_plan: Option<i64>,
     portfolio_abandon: Option<f64>,
+    portfolio_dual_bound: Option<f64>,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -2096,6 +2106,7 @@ fn solve_batch_safe(
         portfolio_mirror,
         portfolio_plan,
         portfolio_abandon,
+        portfolio_dual_bound,
         barrier_funnel,
         barrier_mu_init,
         barrier_relaxation,

@@ -291,20 +291,38 @@ pub struct Settings {
     /// ([`Settings::portfolio_flip`], [`Settings::portfolio_plan`],
     /// [`Settings::portfolio_mirror`]) stops, discarded ([`StartOutcome::Abandoned`]), once it
     /// is past [`Settings::portfolio_abandon_after`] iterations after its guided ones at a
-    /// feasible trajectory whose cost is more than this fraction above the kept solution's. Its
-    /// guide has taken it round the other side of an obstacle, and by then what is left to it
-    /// are mostly the small moves of a path that already clears them; the guided starts that
-    /// find a better optimum end below the kept cost or come near it sooner. The third start is
-    /// left out: past its barrier homotopy it may still be feasible at hundreds of times the
-    /// kept cost and then come down below it. With the default `Some(0.3)` after 45 iterations
-    /// the family replays of twelve seeds match the peers on the same 2434 of 2520 problems as
-    /// without it, for 0.97x the iterations; 10 problems end higher (up to 31 %), where a guided
-    /// start would have gone on to an optimum below the peers'. On two seeds not tuned on every
-    /// one of 420 problems ends as before (`bench/peers/README.md`, "Abandoned starts").
-    /// `None`: none stop.
+    /// trajectory, feasible or not, whose cost is more than this fraction above the kept
+    /// solution's. Its guide has taken it round the other side of an obstacle, and by then what
+    /// is left to it are mostly the small moves of a path that already clears them; the guided
+    /// starts that find a better optimum end below the kept cost or come near it sooner. The
+    /// third start is left out: past its barrier homotopy it may still be feasible at hundreds
+    /// of times the kept cost and then come down below it. With the default `Some(0.3)` after 45
+    /// iterations the family replays of twelve seeds match the peers on the same 2434 of 2520
+    /// problems as without it, for 0.97x the iterations; 10 problems end higher (up to 31 %),
+    /// where a guided start would have gone on to an optimum below the peers'. On two seeds not
+    /// tuned on every one of 420 problems ends as before (`bench/peers/README.md`, "Abandoned
+    /// starts"). Until 2026-12-07 only feasible trajectories were tested; an infeasible one far
+    /// above the kept cost has further to go, and testing it too changed no outcome of the
+    /// replays of eighteen seeds, for 0.976x the iterations ("Dual bounds"). `None`: none stop.
     pub portfolio_abandon: Option<f64>,
     /// [`Settings::portfolio_abandon`]: the iterations a start runs before the test applies.
     pub portfolio_abandon_after: usize,
+    /// [`WarmUp::Portfolio`]: a guided or the third start ([`Settings::portfolio_flip`],
+    /// [`Settings::portfolio_plan`], [`Settings::portfolio_mirror`],
+    /// [`Settings::portfolio_third_mu`]) stops, discarded ([`StartOutcome::Abandoned`]), at the
+    /// end of an inner solve of its augmented Lagrangian that converged (to
+    /// `al_inner_tolerance` or the gradient test) where the dual bound, the Lagrangian
+    /// `J + lambda^T g~` with the updated multipliers, is more than this fraction above the kept
+    /// solution's cost. The trajectory then minimises the Lagrangian, whose value bounds from
+    /// below the cost of every feasible trajectory near it (the dual function of the local
+    /// problem, as in the augmented-Lagrangian methods' duality: Bertsekas 1982): the start is
+    /// headed for an optimum above the kept one, however far its own cost still is from it.
+    /// Inner solves that end on the coarser `al_inner_progress` are not minimisers, and tested
+    /// there the bound stopped starts that went on to better optima. With the default
+    /// `Some(0.01)` the family replays of eighteen seeds end as without it (and without
+    /// [`Settings::portfolio_abandon`]'s test of infeasible trajectories) for 0.95x the
+    /// iterations (`bench/peers/README.md`, "Dual bounds"). `None`: no such test.
+    pub portfolio_dual_bound: Option<f64>,
     /// Initial `rho` of the warm-up.
     pub al_rho_init: f64,
     /// Factor on `rho` when the violation did not fall to a quarter.
@@ -457,6 +475,7 @@ impl Default for Settings {
             portfolio_stall: 10,
             portfolio_abandon: Some(0.3),
             portfolio_abandon_after: 45,
+            portfolio_dual_bound: Some(0.01),
             al_rho_init: 10.0,
             al_rho_factor: 10.0,
             al_rho_max: 1e8,
@@ -476,10 +495,11 @@ impl Default for Settings {
 }
 
 impl Settings {
-    /// Whether a flipped or mirrored start is tested against the kept solution's cost
-    /// ([`Settings::portfolio_stall`], [`Settings::portfolio_abandon`]).
+    /// Whether a guided start is tested against the kept solution's cost
+    /// ([`Settings::portfolio_stall`], [`Settings::portfolio_abandon`],
+    /// [`Settings::portfolio_dual_bound`]).
     pub(crate) fn tests_later_starts(&self) -> bool {
-        self.portfolio_stall > 0 || self.portfolio_abandon.is_some()
+        self.portfolio_stall > 0 || self.portfolio_abandon.is_some() || self.portfolio_dual_bound.is_some()
     }
 
     /// Rejects settings that cannot work, naming the field.
@@ -669,6 +689,14 @@ impl Settings {
         if let Some(fraction) = self.portfolio_abandon {
             check(
                 "portfolio_abandon",
+                finite_nonneg(fraction),
+                fraction,
+                "finite and >= 0",
+            )?;
+        }
+        if let Some(fraction) = self.portfolio_dual_bound {
+            check(
+                "portfolio_dual_bound",
                 finite_nonneg(fraction),
                 fraction,
                 "finite and >= 0",

@@ -768,6 +768,7 @@ def solve_batch_safe(
     portfolio_mirror: Optional[int] = 5,
     portfolio_plan: Optional[int] = 5,
     portfolio_abandon: Optional[float] = 0.3,
+    portfolio_dual_bound: Optional[float] = 0.01,
     barrier_funnel: Optional[float] = 0.03,
     barrier_mu_init: float = 0.03,
     barrier_relaxation: float = 0.1,
@@ -1407,12 +1408,18 @@ class SafeCddpSolver:
     start to a side they already steer to is left out, and where the first is kept the mirrored
     start is too (``None``: none). On the benchmark family's replays of 18 seeds they take the
     misses by more than 5 % from 25 to 14 for 1.003x-1.006x the time per problem.
-    ``portfolio_abandon``: a flipped, the planned or the mirrored start stops, discarded, once past its 45th
-    iteration after the guided ones it is on a feasible path that costs more than this fraction
-    above the kept solution: its guide has taken it round the other side (``None``: none stop;
-    the third start is never stopped so). On the benchmark family's replays every match against
-    the peers stays, for 0.97x the iterations; 10 of 2520 solutions end higher, where an
-    abandoned start would have gone on below the peers' optimum.
+    ``portfolio_abandon``: a flipped, a planned or the mirrored start stops, discarded, once past its 45th
+    iteration after the guided ones it is on a path (feasible or not) that costs more than this
+    fraction above the kept solution: its guide has taken it round the other side (``None``:
+    none stop; the third start is never stopped so). On the benchmark family's replays every
+    match against the peers stays, for 0.97x the iterations; 10 of 2520 solutions end higher,
+    where an abandoned start would have gone on below the peers' optimum.
+    ``portfolio_dual_bound``: a guided or the third start stops, discarded, at the end of a
+    converged inner solve of its augmented Lagrangian where the dual bound (the Lagrangian
+    ``J + lambda^T g`` with the updated multipliers, a lower bound on the cost of the feasible
+    paths near it) is more than this fraction above the kept cost (``None``: no such test). On
+    the benchmark family's replays of 18 seeds every solution ends as without it, for 0.95x
+    the iterations (with ``portfolio_abandon`` on infeasible paths).
     ``portfolio_threads``: 1, or 2 to run the portfolio's first two starts at once on two
     threads, and its flipped and mirrored starts two at a time (the same solution and
     iterations, less wall time). ``barrier_funnel`` (``None``: no
@@ -1452,6 +1459,7 @@ class SafeCddpSolver:
         portfolio_mirror: Optional[int] = 5,
         portfolio_plan: Optional[int] = 5,
         portfolio_abandon: Optional[float] = 0.3,
+    portfolio_dual_bound: Optional[float] = 0.01,
         barrier_funnel: Optional[float] = 0.03,
         barrier_mu_init: float = 0.03,
         barrier_relaxation: float = 0.1,
@@ -1550,7 +1558,8 @@ class SafeSolution:
         polish went on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its
         homotopy on the kept solution's sides), ``"stalled"`` (stopped where, at the rate its
         cost fell, it could not reach the kept cost within its iterations) or ``"abandoned"``
-        (stopped at a feasible path more than ``portfolio_abandon`` above the kept cost). The ``"kept"`` and ``"polished"`` starts'
+        (stopped more than ``portfolio_abandon`` above the kept cost, or where its dual bound was
+        more than ``portfolio_dual_bound`` above it). The ``"kept"`` and ``"polished"`` starts'
         iterations make up :attr:`iterations`, the others' :attr:`discarded_iterations`; the
         table lists them after the status line."""
     def table(self) -> str:

@@ -201,7 +201,8 @@ where
     /// The running start stopped there.
     same_side: bool,
     /// The kept solution's cost, which the running start must be able to reach
-    /// ([`Settings::portfolio_stall`], [`Settings::portfolio_abandon`]; `None`: no such test).
+    /// ([`Settings::portfolio_stall`], [`Settings::portfolio_abandon`],
+    /// [`Settings::portfolio_dual_bound`]; `None`: no such test).
     beat: Option<f64>,
     /// The running start is a guided one (flipped, planned or mirrored) past its guided
     /// iterations, which [`Settings::portfolio_abandon`] may stop.
@@ -659,7 +660,7 @@ where
                 // on from the kept solution, whose cost its cold multipliers first raise).
                 p.beat = (i >= 2
                     && member.is_some()
-                    && self.settings.portfolio_stall > 0
+                    && (self.settings.portfolio_stall > 0 || self.settings.portfolio_dual_bound.is_some())
                     && p.report.max_violation_tightened <= tol)
                     .then_some(p.report.cost);
                 match member {
@@ -923,6 +924,11 @@ where
             let mut stall = Stall::new(self.core.cost);
             for done in 1..=self.settings.max_iterations {
                 let outcome = self.iterate(problem)?;
+                // Its multiplier update found the start's dual bound above the kept cost
+                // (`Settings::portfolio_dual_bound`).
+                if self.portfolio.stopped.is_some() {
+                    break;
+                }
                 let mut tightened = false;
                 let mut fresh = false;
                 if let Some(n2) = self.stoch.tightening.as_ref().map(|t| t.update_every()) {
@@ -946,12 +952,11 @@ where
                 if let Some(kept) = self.portfolio.beat {
                     let s = &self.settings;
                     let feasible = self.it.violation_max <= s.constraint_tolerance;
-                    // A flipped or mirrored start that, well into its iterations on the side
-                    // its guide chose, is feasible far above the kept cost
+                    // A guided start that, well into its iterations on the side its guide
+                    // chose, is far above the kept cost, feasible or not
                     // (`Settings::portfolio_abandon`).
                     if let Some(fraction) = s.portfolio_abandon.filter(|_| self.portfolio.guided) {
-                        if done > s.portfolio_abandon_after && feasible && self.core.cost > kept + fraction * kept.abs()
-                        {
+                        if done > s.portfolio_abandon_after && self.core.cost > kept + fraction * kept.abs() {
                             self.portfolio.stopped = Some(StartOutcome::Abandoned);
                             break;
                         }
@@ -1178,7 +1183,7 @@ where
         if self.warm.active && gradient < inner_tol {
             // The inner problem is solved: update the multipliers.
             self.log(iteration, 0.0, false);
-            if self.update_multipliers(problem, true) {
+            if self.update_multipliers(problem, true, true) {
                 return Some(IterationOutcome::Converged);
             }
             return Some(IterationOutcome::Accepted {
@@ -1339,7 +1344,8 @@ where
                     self.warm.near_off = true;
                 }
             }
-            let inner_done = change.abs() < s.al_inner_tolerance * (1.0 + self.it.merit.abs())
+            let exact = change.abs() < s.al_inner_tolerance * (1.0 + self.it.merit.abs());
+            let inner_done = exact
                 || (!self.warm.barrier
                     && (self.warm.from_cold || self.warm.kkt_failed)
                     && alpha == 1.0
@@ -1352,7 +1358,8 @@ where
             } else {
                 s.al_inner_iterations
             };
-            let converged = (inner_done || self.warm.inner >= limit) && self.update_multipliers(problem, inner_done);
+            let converged =
+                (inner_done || self.warm.inner >= limit) && self.update_multipliers(problem, inner_done, exact);
             return IterationOutcome::Accepted { step: alpha, converged };
         }
         let converged = change.abs() < s.tolerances.cost * (1.0 + self.core.cost.abs())
@@ -1371,7 +1378,7 @@ where
         let s = self.settings;
         self.log(iteration, 0.0, false);
         if self.warm.active {
-            if self.update_multipliers(problem, true) {
+            if self.update_multipliers(problem, true, false) {
                 return IterationOutcome::Converged;
             }
         } else if s.warm_up != WarmUp::None && self.rows.bound_offset > 0 {

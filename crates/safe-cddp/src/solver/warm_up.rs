@@ -141,7 +141,12 @@ where
     /// away from the obstacles, at any cost (`point-s12-i24-a0` of the problem family: 78.1
     /// against the peers' 1.41, a loop round two overlapping obstacles; P2's start stopped 2.5e-5
     /// above its optimum).
-    pub(super) fn update_multipliers(&mut self, problem: &Problem<NX, NU>, inner_done: bool) -> bool {
+    ///
+    /// `exact`: the inner solve met `al_inner_tolerance` or the gradient test (not only
+    /// `al_inner_progress`, nor a failed line search). Only then is the trajectory a minimiser of
+    /// the augmented Lagrangian, and the Lagrangian's value with the updated multipliers a dual
+    /// bound ([`crate::Settings::portfolio_dual_bound`]).
+    pub(super) fn update_multipliers(&mut self, problem: &Problem<NX, NU>, inner_done: bool, exact: bool) -> bool {
         if self.it.need_linearize {
             self.linearize_now(problem);
         }
@@ -173,6 +178,26 @@ where
                 } else {
                     0.0
                 };
+            }
+        }
+        // A later start whose dual bound is above the kept cost is headed for a worse optimum
+        // (`Settings::portfolio_dual_bound`). The trajectory minimises the augmented Lagrangian
+        // of the old multipliers, so it is stationary for the Lagrangian `J + lambda+^T g~` of
+        // the updated ones (their gradients agree), whose value bounds from below the cost of
+        // every feasible trajectory near it (each `lambda+ g~ <= 0` there): the dual function
+        // of the local problem.
+        if let (Some(kept), Some(fraction), true) = (self.portfolio.beat, s.portfolio_dual_bound, exact) {
+            let mut dual = self.core.cost;
+            for k in 0..self.core.n {
+                for i in 0..rows.bound_offset {
+                    let idx = k * rows.m + i;
+                    if rows.present[idx] {
+                        dual += w.lambda[idx] * (rows.g[idx] + rows.margin[idx]);
+                    }
+                }
+            }
+            if dual > kept + fraction * kept.abs() {
+                self.portfolio.stopped = Some(crate::StartOutcome::Abandoned);
             }
         }
         if self.it.violation_max > 0.25 * previous_max {

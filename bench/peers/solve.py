@@ -174,12 +174,6 @@ def add_safe_arguments(ap: argparse.ArgumentParser) -> None:
         "Lagrangian's dual bound is above the kept cost (the default before 2026-12-07, late)",
     )
     ap.add_argument(
-        "--flip-from-guess",
-        action="store_true",
-        help="ddpkit with SafeCddpSolver(portfolio_flip_from_kept=False): the flipped starts begin from the initial "
-        "guess rather than the kept solution's controls (the default before 2026-12-07, before midnight)",
-    )
-    ap.add_argument(
         "--portfolio-threads",
         type=int,
         default=1,
@@ -219,8 +213,6 @@ def safe_options_of(args: argparse.Namespace) -> dict[str, Any]:
         options["portfolio_abandon"] = None
     if args.no_dual_bound:
         options["portfolio_dual_bound"] = None
-    if args.flip_from_guess:
-        options["portfolio_flip_from_kept"] = False
     if args.apart is not None:
         options["portfolio_apart"] = args.apart
     if args.barrier_funnel is not None:

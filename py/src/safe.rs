@@ -830,7 +830,6 @@ fn safe_settings_dict<'py>(py: Python<'py>, s: &Settings) -> PyResult<Bound<'py,
     d.set_item("portfolio_plan", s.portfolio_plan)?;
     d.set_item("portfolio_abandon", s.portfolio_abandon)?;
     d.set_item("portfolio_dual_bound", s.portfolio_dual_bound)?;
-    d.set_item("portfolio_flip_from_kept", s.portfolio_flip_from_kept)?;
     d.set_item(
         "barrier_funnel",
         s.barrier_funnel.is_finite().then_some(s.barrier_funnel),
@@ -872,7 +871,6 @@ fn settings_from(
     portfolio_plan: Option<i64>,
     portfolio_abandon: Option<f64>,
     portfolio_dual_bound: Option<f64>,
-    portfolio_flip_from_kept: bool,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -952,7 +950,6 @@ fn settings_from(
         portfolio_plan,
         portfolio_abandon,
         portfolio_dual_bound,
-        portfolio_flip_from_kept,
         // `None`: no limit.
         barrier_funnel: barrier_funnel.unwrap_or(f64::INFINITY),
         barrier_mu_init,
@@ -1176,7 +1173,6 @@ impl SafeCddpSolver {
                         portfolio_plan = default_plan(),
                         portfolio_abandon = Settings::default().portfolio_abandon,
                         portfolio_dual_bound = Settings::default().portfolio_dual_bound,
-                        portfolio_flip_from_kept = Settings::default().portfolio_flip_from_kept,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -1186,7 +1182,7 @@ impl SafeCddpSolver {
         text_signature = "(problem, constraints, tightening=None, method='ilqr', max_iterations=200, \
                              constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, portfolio_dual_bound=0.01, portfolio_flip_from_kept=True, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, portfolio_dual_bound=0.01, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
     )]
     #[allow(clippy::too_many_arguments)]
@@ -1211,7 +1207,6 @@ impl SafeCddpSolver {
         #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_plan: Option<i64>,
         portfolio_abandon: Option<f64>,
         portfolio_dual_bound: Option<f64>,
-        portfolio_flip_from_kept: bool,
         barrier_funnel: Option<f64>,
         barrier_mu_init: f64,
         barrier_relaxation: f64,
@@ -1236,7 +1231,6 @@ impl SafeCddpSolver {
             portfolio_plan,
             portfolio_abandon,
             portfolio_dual_bound,
-            portfolio_flip_from_kept,
             barrier_funnel,
             barrier_mu_init,
             barrier_relaxation,
@@ -1742,7 +1736,6 @@ impl Mpc {
             default_plan(),
             d.portfolio_abandon,
             d.portfolio_dual_bound,
-            d.portfolio_flip_from_kept,
             Some(d.barrier_funnel),
             d.barrier_mu_init,
             d.barrier_relaxation,
@@ -2056,7 +2049,6 @@ where
                         portfolio_plan = default_plan(),
                         portfolio_abandon = Settings::default().portfolio_abandon,
                         portfolio_dual_bound = Settings::default().portfolio_dual_bound,
-                        portfolio_flip_from_kept = Settings::default().portfolio_flip_from_kept,
                         barrier_funnel = Some(Settings::default().barrier_funnel),
                         barrier_mu_init = Settings::default().barrier_mu_init,
                         barrier_relaxation = Settings::default().barrier_relaxation,
@@ -2065,7 +2057,7 @@ where
     text_signature = "(problems, constraints, tightening=None, *, threads=None, method='ilqr', max_iterations=200, \
                          constraint_tolerance=1e-8, qp_method='fast', warm_up='portfolio', \
                              portfolio_polish=True, portfolio_new_side=1.2, portfolio_threads=1, portfolio_third_mu=0.003, \
-                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, portfolio_dual_bound=0.01, portfolio_flip_from_kept=True, barrier_funnel=0.03, barrier_mu_init=0.03, \
+                             portfolio_apart=0.001, portfolio_flip=1.5, portfolio_flip_apart=1.25, portfolio_flip_starts=2, portfolio_mirror=5, portfolio_plan=5, portfolio_abandon=0.3, portfolio_dual_bound=0.01, barrier_funnel=0.03, barrier_mu_init=0.03, \
                              barrier_relaxation=0.1, al_inner_progress=1.0)"
 )]
 #[allow(clippy::too_many_arguments)]
@@ -2092,7 +2084,6 @@ fn solve_batch_safe(
     #[pyo3(from_py_with = crate::convert::opt_int_i64)] portfolio_plan: Option<i64>,
     portfolio_abandon: Option<f64>,
     portfolio_dual_bound: Option<f64>,
-    portfolio_flip_from_kept: bool,
     barrier_funnel: Option<f64>,
     barrier_mu_init: f64,
     barrier_relaxation: f64,
@@ -2116,7 +2107,6 @@ fn solve_batch_safe(
         portfolio_plan,
         portfolio_abandon,
         portfolio_dual_bound,
-        portfolio_flip_from_kept,
         barrier_funnel,
         barrier_mu_init,
         barrier_relaxation,

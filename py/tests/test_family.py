@@ -393,44 +393,11 @@ def test_a_start_whose_dual_bound_is_above_the_kept_cost_is_abandoned() -> None:
         solve.DdpkitSolver(p, safe_options={"portfolio_dual_bound": -0.1})
 
 
-def test_flipped_starts_from_the_kept_controls_find_the_peers_side() -> None:
-    # car-s2-i66-a0 (bench/results/family_s2_210_dual.json): every start before the guided ones
-    # passes the second obstacle on the far side from the peers' optimum. The flipped start from
-    # the initial guess heads for the peers' side from rest and ends 76 % above FATROP; from the
-    # kept solution's controls (`portfolio_flip_from_kept`, the default) it reaches FATROP's
-    # optimum.
-    import pickle
-
-    import ddpkit
-    import solve
-
-    assert ddpkit.default_settings("SafeCddpSolver")["portfolio_flip_from_kept"] is True
-    spec = family.generate("car", 2, 66)
-    assert spec["name"] == "car-s2-i66-a0"
-    p = parse(spec)
-    fatrop = 1.953159405784205
-    guess = solve.safe_options_of(family.build_parser().parse_args(["--problems", "3", "--seed", "2", "--flip-from-guess"]))
-    assert guess["portfolio_flip_from_kept"] is False
-    before = solve.DdpkitSolver(p, safe_options=guess).constrained.solve()
-    solver = solve.DdpkitSolver(p, safe_options={}).constrained
-    after = solver.solve()
-    assert before.max_violation <= 1e-6 and after.max_violation <= 1e-6
-    assert before.cost > 1.5 * fatrop
-    assert after.cost <= fatrop * (1 + 1e-6)
-    kept = [st for st in after.starts if st["outcome"] == "kept"]
-    assert len(kept) == 1 and kept[0]["flip"] is not None
-    again = pickle.loads(pickle.dumps(solver))
-    assert again == solver
-    assert again != solve.DdpkitSolver(p, safe_options=guess).constrained
-
-
 def test_the_flip_gate_is_lower_where_the_first_two_starts_end_apart() -> None:
     # point-s10-i22-a0 (bench/results/family_s10_210.json): the first two starts end apart, and
     # the kept solution costs 1.44x the obstacle-free optimum, below `portfolio_flip`'s gate of
     # 1.5 but above `portfolio_flip_apart`'s 1.25 (the default), behind which the flipped and
-    # mirrored starts find FATROP's optimum, 10 % lower (from the initial guess,
-    # `portfolio_flip_from_kept=False`; from the kept controls, the default, they end 3.8 %
-    # above it).
+    # mirrored starts find FATROP's optimum, 10 % lower.
     import pickle
 
     import ddpkit
@@ -442,11 +409,11 @@ def test_the_flip_gate_is_lower_where_the_first_two_starts_end_apart() -> None:
     assert spec["name"] == "point-s10-i22-a0"
     p = parse(spec)
     fatrop = 0.1665558658680249
-    args = ["--problems", "3", "--seed", "10", "--flip-apart", "1.5", "--flip-starts", "10", "--flip-from-guess"]
+    args = ["--problems", "3", "--seed", "10", "--flip-apart", "1.5", "--flip-starts", "10"]
     high = solve.safe_options_of(family.build_parser().parse_args(args))
     assert (high["portfolio_flip_apart"], high["portfolio_flip_starts"]) == (1.5, 10)
     before = solve.DdpkitSolver(p, safe_options=high).constrained.solve()
-    solver = solve.DdpkitSolver(p, safe_options={"portfolio_flip_from_kept": False}).constrained
+    solver = solve.DdpkitSolver(p, safe_options={}).constrained
     after = solver.solve()
     assert before.max_violation <= 1e-6 and after.max_violation <= 1e-6
     assert before.cost > 1.05 * fatrop

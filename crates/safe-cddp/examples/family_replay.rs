@@ -13,7 +13,7 @@
 //! (`Settings::portfolio_apart`), `NEW_SIDE=F` the third start where the first two agree
 //! (`Settings::portfolio_new_side`; 0: none), `FLIP=F`, `FLIP_GUIDE=K` the flipped starts
 //! (`Settings::portfolio_flip`, `portfolio_flip_guide`; 0: none), `FLIP_STARTS=K` at most `K` of
-//! them (`portfolio_flip_starts`), `FLIP_FROM_KEPT=0|1` where they begin (`portfolio_flip_from_kept`), `FLIP_APART=F` their gate where the first two
+//! them (`portfolio_flip_starts`), `FLIP_APART=F` their gate where the first two
 //! starts end apart (`portfolio_flip_apart`), `MIRROR=K`, `PLAN=K` the mirrored and the planned
 //! start's guided iterations (`portfolio_mirror`, `portfolio_plan`; 0: none), `THREADS=2` its concurrent starts
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
@@ -192,9 +192,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = env("ABANDON") {
         // 0: none.
         s.portfolio_abandon = (v > 0.0).then_some(v);
-    }
-    if let Some(v) = env("FLIP_FROM_KEPT") {
-        s.portfolio_flip_from_kept = v != 0.0;
     }
     if let Some(v) = env("DUAL_BOUND") {
         s.portfolio_dual_bound = (v >= 0.0).then_some(v);

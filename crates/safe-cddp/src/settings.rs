@@ -238,18 +238,6 @@ pub struct Settings {
     pub portfolio_flip_starts: usize,
     /// [`Settings::portfolio_flip`]: the iterations a flipped start keeps its guide row.
     pub portfolio_flip_guide: usize,
-    /// [`Settings::portfolio_flip`]: the flipped starts begin from the kept solution's controls
-    /// (`true`) rather than the initial guess. The guide then moves one obstacle's side of a
-    /// trajectory that already has the kept solution's speed profile, where from rest a car
-    /// heading for the far side may settle on another way round the whole scene, as the second
-    /// planned start found ([`Settings::portfolio_plan`]). With the default `true` the family
-    /// replays of eighteen seeds match the peers' best on 3661 of 3780 problems instead of 3658
-    /// and end more than 5 % above it on 12 instead of 14 (seeds 13-18, never tuned on: 4
-    /// instead of 6), for the same iterations; outcomes move both ways (`car-s2-i66-a0`, 75 %
-    /// above the peers, matches, `car-s2-i3-a0`, which matched, ends 27 % above;
-    /// `bench/peers/README.md`, "Flipped starts from the kept controls"). `false`: from the
-    /// initial guess (the default before 2026-12-07, before midnight).
-    pub portfolio_flip_from_kept: bool,
     /// [`Settings::portfolio_flip`]: after the flipped starts (behind the same gate), one more
     /// start steered to the far side of every state row at once, each at its own most active
     /// time on the kept solution (the guide's targets as a flipped start's, all in one guide
@@ -482,7 +470,6 @@ impl Default for Settings {
             portfolio_flip_apart: 1.25,
             portfolio_flip_starts: 2,
             portfolio_flip_guide: 25,
-            portfolio_flip_from_kept: true,
             portfolio_mirror: Some(5),
             portfolio_plan: Some(5),
             portfolio_stall: 10,

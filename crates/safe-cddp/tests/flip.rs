@@ -46,16 +46,6 @@ fn no_plan() -> Settings {
     }
 }
 
-/// The defaults with the flipped starts from the initial guess (`portfolio_flip_from_kept =
-/// false`, the default before 2026-12-07, before midnight): the tests of the gate, the stall and
-/// the guided starts' pairs were built on problems whose flipped starts take these paths from it.
-fn from_guess() -> Settings {
-    Settings {
-        portfolio_flip_from_kept: false,
-        ..Settings::default()
-    }
-}
-
 #[test]
 fn a_flipped_start_finds_the_way_between_the_obstacles() {
     let before = solve(CAR_S1_I21, no_flips());
@@ -117,10 +107,10 @@ const POINT_S10_I22_FATROP: f64 = 0.1665558658680249;
 fn the_gate_is_lower_where_the_first_two_starts_end_apart() {
     let high = Settings {
         portfolio_flip_apart: 1.5,
-        ..from_guess()
+        ..Settings::default()
     };
     let before = solve(POINT_S10_I22, high);
-    let after = solve(POINT_S10_I22, from_guess());
+    let after = solve(POINT_S10_I22, Settings::default());
     let (a, b) = (&after.starts[0], &after.starts[1]);
     assert!(
         (a.cost - b.cost).abs() > 1e-6 * a.cost.abs().max(b.cost.abs()),
@@ -400,7 +390,7 @@ const CAR_S2_I52: &str = r#"{"name": "car-s2-i52-a0", "model": "car", "dt": 0.06
 fn a_start_that_cannot_reach_the_kept_cost_stops() {
     let base = Settings {
         al_near_crawl: 0,
-        ..from_guess()
+        ..Settings::default()
     };
     let crawl = solve(
         CAR_S2_I52,
@@ -626,19 +616,14 @@ fn two_threads_run_the_guided_starts_two_at_a_time_as_one_thread_would() {
     // kept before them; where the first of a pair is kept the second runs again against the new
     // cost. `car-s2-i27-a0` takes that path with a second flipped start the new cost abandons,
     // `point-s1-i1-a0` with the mirrored start, `car-s2-i59-a0` runs a pair neither of which is
-    // kept (with the flipped starts from the initial guess, `from_guess`; the defaults, from
-    // the kept controls, are checked the same way). Each problem is solved twice by each solver
-    // (the guide solvers are reused).
-    for (json, base) in [CAR_S2_I27, POINT_S1_I1, CAR_S2_I59]
-        .into_iter()
-        .flat_map(|json| [(json, from_guess()), (json, Settings::default())])
-    {
-        let (problem, mut one) = solver(json, base);
+    // kept. Each problem is solved twice by each solver (the guide solvers are reused).
+    for json in [CAR_S2_I27, POINT_S1_I1, CAR_S2_I59] {
+        let (problem, mut one) = solver(json, Settings::default());
         let (_, mut two) = solver(
             json,
             Settings {
                 portfolio_threads: 2,
-                ..base
+                ..Settings::default()
             },
         );
         for round in 0..2 {
@@ -659,9 +644,6 @@ fn two_threads_run_the_guided_starts_two_at_a_time_as_one_thread_would() {
         let r = one.report();
         let guided: Vec<_> = r.starts.iter().filter(|s| s.flip.is_some() || s.mirror).collect();
         assert!(guided.len() >= 2, "{}", r.table());
-        if base.portfolio_flip_from_kept {
-            continue;
-        }
         if json != CAR_S2_I59 {
             // The first guided start is kept, and another runs after it.
             assert_eq!(guided[0].outcome, StartOutcome::Kept, "{}", r.table());
@@ -771,51 +753,4 @@ fn a_start_whose_dual_bound_is_above_the_kept_cost_is_abandoned() {
         };
         assert!(s.validate().unwrap_err().to_string().contains("portfolio_dual_bound"));
     }
-}
-
-/// Problem 66 of the car family, seed 2 (`bench/results/family_s2_210_dual.json`): every start
-/// before the guided ones passes the second obstacle on the far side from the peers' optimum
-/// (3.4274 kept against FATROP's 1.9532). Its flipped start from the initial guess heads for the
-/// peers' side from rest and ends at 3.4322; from the kept solution's controls, with their speed
-/// profile, it ends at the peers' optimum.
-const CAR_S2_I66: &str = r#"{"name": "car-s2-i66-a0", "model": "car", "dt": 0.0546, "N": 102, "x0": [0.0, 0.0, 0.2993, 0.0], "cost": {"kind": "quad_goal", "x_goal": [2.8892, 0.568, 0.1223, 0.0], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0, 10.0]}, "obstacles": [[1.2852, 0.1466, 0.2143], [1.8803, 0.091, 0.34], [1.2725, 0.486, 0.2109], [0.9231, 0.3801, 0.3841]]}"#;
-const CAR_S2_I66_FATROP: f64 = 1.953159405784205;
-
-#[test]
-fn flipped_starts_from_the_kept_controls_find_the_peers_side() {
-    let before = solve(CAR_S2_I66, from_guess());
-    let (problem, mut one) = solver(CAR_S2_I66, Settings::default());
-    let after = one.solve(&problem).unwrap().clone();
-    assert!(before.max_violation <= 1e-6 && after.max_violation <= 1e-6);
-    assert!(
-        before.cost > 1.5 * CAR_S2_I66_FATROP,
-        "from the guess: {}",
-        before.table()
-    );
-    assert!(
-        after.cost <= CAR_S2_I66_FATROP * (1.0 + 1e-6),
-        "from the kept controls: {}",
-        after.table()
-    );
-    assert!(kept_start(&after).flip.is_some(), "{}", after.table());
-    check_totals(&after);
-    // The starts before the flipped ones are the same computation.
-    let first_flip = |r: &Report| r.starts.iter().position(|s| s.flip.is_some()).unwrap();
-    let n = first_flip(&before);
-    assert_eq!(n, first_flip(&after));
-    assert_eq!(
-        after.starts[..n].iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>(),
-        before.starts[..n].iter().map(|s| s.cost.to_bits()).collect::<Vec<_>>()
-    );
-    // Two threads: the same computation.
-    let (_, mut two) = solver(
-        CAR_S2_I66,
-        Settings {
-            portfolio_threads: 2,
-            ..Settings::default()
-        },
-    );
-    let r = two.solve(&problem).unwrap();
-    assert_eq!(r.starts, after.starts);
-    assert_eq!(two.us(), one.us());
 }

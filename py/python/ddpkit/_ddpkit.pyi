@@ -769,7 +769,6 @@ def solve_batch_safe(
     portfolio_plan: Optional[int] = 5,
     portfolio_abandon: Optional[float] = 0.3,
     portfolio_dual_bound: Optional[float] = 0.01,
-    portfolio_flip_from_kept: bool = True,
     barrier_funnel: Optional[float] = 0.03,
     barrier_mu_init: float = 0.03,
     barrier_relaxation: float = 0.1,
@@ -1421,11 +1420,6 @@ class SafeCddpSolver:
     paths near it) is more than this fraction above the kept cost (``None``: no such test). On
     the benchmark family's replays of 18 seeds every solution ends as without it, for 0.95x
     the iterations (with ``portfolio_abandon`` on infeasible paths).
-    ``portfolio_flip_from_kept``: the flipped starts begin from the kept solution's controls
-    (``True``) rather than the initial guess, so that a car keeps the kept solution's speed
-    profile while the guide moves one obstacle's side. On the benchmark family's replays of 18
-    seeds: 3661 matches of 3780 instead of 3658, 12 misses by more than 5 % instead of 14, for
-    the same iterations.
     ``portfolio_threads``: 1, or 2 to run the portfolio's first two starts at once on two
     threads, and its flipped and mirrored starts two at a time (the same solution and
     iterations, less wall time). ``barrier_funnel`` (``None``: no
@@ -1466,7 +1460,6 @@ class SafeCddpSolver:
         portfolio_plan: Optional[int] = 5,
         portfolio_abandon: Optional[float] = 0.3,
     portfolio_dual_bound: Optional[float] = 0.01,
-    portfolio_flip_from_kept: bool = True,
         barrier_funnel: Optional[float] = 0.03,
         barrier_mu_init: float = 0.03,
         barrier_relaxation: float = 0.1,

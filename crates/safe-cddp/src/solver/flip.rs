@@ -16,11 +16,10 @@
 //! along `a` as the point where that line leaves the obstacle again, and every other state row
 //! with it: where obstacles overlap, past the far side of the cluster, so that the target is
 //! not inside a neighbouring obstacle. It is read from the constraints themselves, so every
-//! state constraint has one. An augmented-Lagrangian start from the kept solution's controls
-//! (from the initial guess without [`crate::Settings::portfolio_flip_from_kept`]) runs
-//! [`crate::Settings::portfolio_flip_guide`] iterations with the guide row, then the guide is
-//! lifted and the start goes on, its multipliers and penalty kept, to its own optimum, which is
-//! kept when better.
+//! state constraint has one. An augmented-Lagrangian start from the initial
+//! guess runs [`crate::Settings::portfolio_flip_guide`] iterations with the guide row, then the
+//! guide is lifted and the start goes on, its multipliers and penalty kept, to its own optimum,
+//! which is kept when better.
 //!
 //! A path round a whole cluster on one side, where the better one goes round it on the other,
 //! touches only one or two of its obstacles, and the flipped start of one of them ends between
@@ -192,9 +191,8 @@ where
     row: Arc<GuideRow>,
 }
 
-/// The controls a guided start may begin from: the initial guess, or the solution kept before
-/// it (the second planned start, and the flipped starts with
-/// `Settings::portfolio_flip_from_kept`).
+/// The controls a guided start may begin from: the initial guess (every guided start but one),
+/// or the solution kept before it (the second planned start).
 #[derive(Clone, Copy)]
 struct Initial<'a, NU: Dim>
 where
@@ -869,8 +867,7 @@ where
 }
 
 /// One guided start on `guide` (its targets set): from the initial guess (the second planned
-/// start, and the flipped starts with `Settings::portfolio_flip_from_kept`: from the kept
-/// solution's controls; both in `initial`) with the guide for its guided
+/// start: from the kept solution's controls; both in `initial`) with the guide for its guided
 /// iterations, then with the guide lifted to its own optimum, still the augmented Lagrangian (not
 /// the barrier of a cold portfolio start) with the guided iterations' multipliers and penalty. With a kept cost `beat` it stops where it crawls above it
 /// (`Settings::portfolio_stall`) or ends up well above it (`Settings::portfolio_abandon`); the
@@ -886,15 +883,14 @@ fn guided_run<NX: Dim, NU: Dim>(
 where
     DefaultAllocator: Alloc<NX, NU>,
 {
-    let Some((_, solver)) = guide.solver.as_mut() else {
-        return Ok(());
-    };
     let guess = match ready.start {
         Guided::Plan { kept: true } => initial.kept,
-        Guided::Flip(_) if solver.settings.portfolio_flip_from_kept => initial.kept,
         _ => initial.guess,
     };
     let n = guess.len();
+    let Some((_, solver)) = guide.solver.as_mut() else {
+        return Ok(());
+    };
     solver.core.traj.us[..n].clone_from_slice(guess);
     solver.forget();
     guide.row.steer();

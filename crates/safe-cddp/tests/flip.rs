@@ -28,6 +28,34 @@ fn solve(json: &str, settings: Settings) -> Report {
     s.solve(&problem).unwrap().clone()
 }
 
+/// A stopping rule of the portfolio's later starts, on `json`: solved with `settings` and with
+/// `without` (the rule off), the same solution to the bit, with more than `fewer` fewer discarded
+/// iterations. Returns the problem, the solver with the rule, its report and the other's.
+fn stops_sooner(
+    json: &str,
+    settings: Settings,
+    without: Settings,
+    fewer: usize,
+) -> (
+    ddp_core::Problem<nalgebra::U4, nalgebra::U2>,
+    SafeCddpSolver<nalgebra::U4, nalgebra::U2>,
+    Report,
+    Report,
+) {
+    let run_on = solve(json, without);
+    let (problem, mut one) = solver(json, settings);
+    let stop = one.solve(&problem).unwrap().clone();
+    assert_eq!(stop.cost.to_bits(), run_on.cost.to_bits());
+    assert_eq!(stop.iterations, run_on.iterations);
+    assert!(
+        stop.discarded_iterations + fewer < run_on.discarded_iterations,
+        "{} against {}",
+        stop.discarded_iterations,
+        run_on.discarded_iterations
+    );
+    (problem, one, stop, run_on)
+}
+
 fn no_flips() -> Settings {
     Settings {
         portfolio_flip: None,
@@ -392,24 +420,11 @@ fn a_start_that_cannot_reach_the_kept_cost_stops() {
         al_near_crawl: 0,
         ..Settings::default()
     };
-    let crawl = solve(
-        CAR_S2_I52,
-        Settings {
-            portfolio_stall: 0,
-            ..base
-        },
-    );
-    let (problem, mut one) = solver(CAR_S2_I52, base);
-    let stop = one.solve(&problem).unwrap().clone();
-    // The same solution, to the bit, with fewer discarded iterations.
-    assert_eq!(stop.cost.to_bits(), crawl.cost.to_bits());
-    assert_eq!(stop.iterations, crawl.iterations);
-    assert!(
-        stop.discarded_iterations + 40 < crawl.discarded_iterations,
-        "{} against {}",
-        stop.discarded_iterations,
-        crawl.discarded_iterations
-    );
+    let without = Settings {
+        portfolio_stall: 0,
+        ..base
+    };
+    let (problem, one, stop, crawl) = stops_sooner(CAR_S2_I52, base, without, 40);
     let stalled: Vec<_> = stop
         .starts
         .iter()
@@ -449,24 +464,11 @@ fn a_start_far_above_the_kept_cost_is_abandoned() {
         portfolio_dual_bound: None,
         ..Settings::default()
     };
-    let run_on = solve(
-        CAR_S2_I59,
-        Settings {
-            portfolio_abandon: None,
-            ..settings
-        },
-    );
-    let (problem, mut one) = solver(CAR_S2_I59, settings);
-    let stop = one.solve(&problem).unwrap().clone();
-    // The same solution, to the bit, with fewer discarded iterations.
-    assert_eq!(stop.cost.to_bits(), run_on.cost.to_bits());
-    assert_eq!(stop.iterations, run_on.iterations);
-    assert!(
-        stop.discarded_iterations + 100 < run_on.discarded_iterations,
-        "{} against {}",
-        stop.discarded_iterations,
-        run_on.discarded_iterations
-    );
+    let without = Settings {
+        portfolio_abandon: None,
+        ..settings
+    };
+    let (problem, one, stop, run_on) = stops_sooner(CAR_S2_I59, settings, without, 100);
     let abandoned: Vec<_> = stop
         .starts
         .iter()
@@ -696,24 +698,11 @@ fn a_start_whose_dual_bound_is_above_the_kept_cost_is_abandoned() {
         max_iterations: 500,
         ..Settings::default()
     };
-    let run_on = solve(
-        CAR_S6_I27,
-        Settings {
-            portfolio_dual_bound: None,
-            ..settings
-        },
-    );
-    let (problem, mut one) = solver(CAR_S6_I27, settings);
-    let stop = one.solve(&problem).unwrap().clone();
-    // The same solution, to the bit, with fewer discarded iterations.
-    assert_eq!(stop.cost.to_bits(), run_on.cost.to_bits());
-    assert_eq!(stop.iterations, run_on.iterations);
-    assert!(
-        stop.discarded_iterations + 80 < run_on.discarded_iterations,
-        "{} against {}",
-        stop.discarded_iterations,
-        run_on.discarded_iterations
-    );
+    let without = Settings {
+        portfolio_dual_bound: None,
+        ..settings
+    };
+    let (problem, one, stop, run_on) = stops_sooner(CAR_S6_I27, settings, without, 80);
     assert_eq!(stop.starts.len(), run_on.starts.len(), "{}", stop.table());
     let mut stopped = 0;
     for (s, on) in stop.starts.iter().zip(&run_on.starts) {

@@ -137,8 +137,85 @@ pub fn vectors_to_numpy<'py, N: Dim>(py: Python<'py>, v: &[VectorN<N>], n: usize
 where
     DefaultAllocator: Allocator<N>,
 {
-    let data: Vec<f64> = v.iter().flat_map(|x| x.iter().copied()).collect();
-    rows_to_numpy(py, v.len(), n, data)
+    rows_to_numpy(py, v.len(), n, flatten_vectors(v, n))
+}
+
+/// Vectors of `n` entries each, one after the other, in one buffer allocated once.
+pub fn flatten_vectors<N: Dim>(v: &[VectorN<N>], n: usize) -> Vec<f64>
+where
+    DefaultAllocator: Allocator<N>,
+{
+    let mut out = Vec::with_capacity(v.len() * n);
+    for x in v {
+        out.extend(x.iter().copied());
+    }
+    out
+}
+
+/// Matrices, each in row-major order, one after the other, in one buffer allocated once.
+pub fn flatten_matrices<R: Dim, C: Dim>(m: &[MatrixN<R, C>]) -> Vec<f64>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    let mut out = Vec::with_capacity(m.len() * m.first().map_or(0, |a| a.len()));
+    for a in m {
+        push_row_major(&mut out, a);
+    }
+    out
+}
+
+/// A result array: its Rust data until Python first reads it, then that numpy array, which
+/// every later read returns. A solve's results thus become numpy arrays only where they are
+/// read (most callers read the states and controls only): each one made costs two Python
+/// objects and an allocation of its buffer.
+pub struct LazyArray {
+    shape: [usize; 3],
+    ndim: usize,
+    data: Vec<f64>,
+    array: PyOnceLock<Py<PyAny>>,
+}
+
+impl LazyArray {
+    /// An array of `shape` (one to three axes) over C-ordered `data`.
+    pub fn new(shape: &[usize], data: Vec<f64>) -> Self {
+        debug_assert!((1..=3).contains(&shape.len()) && shape.iter().product::<usize>() == data.len());
+        let mut s = [0; 3];
+        s[..shape.len()].copy_from_slice(shape);
+        Self {
+            shape: s,
+            ndim: shape.len(),
+            data,
+            array: PyOnceLock::new(),
+        }
+    }
+
+    /// An array that already is a Python object (an unpickled result's).
+    pub fn ready(py: Python<'_>, array: Py<PyAny>) -> Self {
+        let cell = PyOnceLock::new();
+        // (A new cell: setting it cannot fail.)
+        let _ = cell.set(py, array);
+        Self {
+            shape: [0; 3],
+            ndim: 0,
+            data: Vec::new(),
+            array: cell,
+        }
+    }
+
+    /// The numpy array, made at the first call.
+    pub fn get<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let array = self.array.get_or_try_init(py, || -> PyResult<Py<PyAny>> {
+            let data = self.data.clone();
+            let [a, b, c] = self.shape;
+            Ok(match self.ndim {
+                1 => vec_to_numpy(py, data),
+                2 => rows_to_numpy(py, a, b, data)?,
+                _ => stack_to_numpy(py, a, b, c, data)?,
+            }
+            .unbind())
+        })?;
+        Ok(array.bind(py).clone())
+    }
 }
 
 /// An `(rows, cols)` array from C-ordered data.
@@ -186,12 +263,20 @@ where
     DefaultAllocator: Allocator<R, C>,
 {
     let mut out = Vec::with_capacity(m.len());
+    push_row_major(&mut out, m);
+    out
+}
+
+/// Appends the entries of `m` in row-major order.
+fn push_row_major<R: Dim, C: Dim>(out: &mut Vec<f64>, m: &MatrixN<R, C>)
+where
+    DefaultAllocator: Allocator<R, C>,
+{
     for i in 0..m.nrows() {
         for j in 0..m.ncols() {
             out.push(m[(i, j)]);
         }
     }
-    out
 }
 
 /// An error that only a bug can cause.

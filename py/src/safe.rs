@@ -15,6 +15,7 @@ use std::sync::{Arc, RwLock};
 
 use ddp_core::dims::{Alloc, Const, DefaultAllocator, Dim, Dims, Dyn, VectorN};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use safe_cddp::constraints::{Circle as CoreCircle, ControlBox as CoreControlBox, ConvexPolygon as CorePolygon};
 use safe_cddp::constraints::{Cylinder as CoreCylinder, StateBox as CoreStateBox};
@@ -25,7 +26,7 @@ use safe_cddp::{
     WarmUp,
 };
 
-use crate::convert::{finite_arr, row_major, rows_to_numpy, shape_str, stack_to_numpy, Arr};
+use crate::convert::{finite_arr, flatten_matrices, flatten_vectors, rows_to_numpy, shape_str, Arr, LazyArray};
 use crate::dims::{internal_mismatch, problem_of, AnyProblem, Dispatch, Pair};
 use crate::errors::{invalid, shape, CoreResult};
 use crate::models::type_name;
@@ -1072,16 +1073,21 @@ where
     DefaultAllocator: Alloc<NX, NU>,
 {
     let n = s.horizon();
+    let (nx, nu, rows) = (s.dims().nx(), s.dims().nu(), s.rows_per_knot());
+    let mut margins = Vec::with_capacity(n * rows);
+    for k in 0..n {
+        margins.extend_from_slice(s.margins(k));
+    }
     Out {
         n,
-        xs: s.xs().iter().flat_map(|x| x.iter().copied()).collect(),
-        us: s.us().iter().flat_map(|u| u.iter().copied()).collect(),
-        gains: s.gains().iter().flat_map(row_major).collect(),
-        feedforward: s.feedforward().iter().flat_map(|k| k.iter().copied()).collect(),
-        propagation_gains: s.propagation_gains().iter().flat_map(row_major).collect(),
-        covariances: s.covariances().iter().flat_map(row_major).collect(),
-        margins: (0..n).flat_map(|k| s.margins(k).iter().copied()).collect(),
-        rows: s.rows_per_knot(),
+        xs: flatten_vectors(s.xs(), nx),
+        us: flatten_vectors(s.us(), nu),
+        gains: flatten_matrices(s.gains()),
+        feedforward: flatten_vectors(s.feedforward(), nu),
+        propagation_gains: flatten_matrices(s.propagation_gains()),
+        covariances: flatten_matrices(s.covariances()),
+        margins,
+        rows,
         report: s.report().clone(),
     }
 }
@@ -1301,7 +1307,7 @@ impl SafeCddpSolver {
         });
         crate::callable::raise_pending()?;
         let out = out?;
-        SafeSolution::from_out(py, out, nx, nu)
+        Ok(SafeSolution::from_out(out, nx, nu))
     }
 
     /// Constraint tightening at the current trajectory (eqs. 19-20); returns the largest change
@@ -1362,28 +1368,14 @@ impl SafeCddpSolver {
 /// The result of :meth:`SafeCddpSolver.solve`.
 #[pyclass(module = "ddpkit._ddpkit", frozen)]
 pub struct SafeSolution {
-    /// States `x_0 .. x_n`, shape `(n+1, nx)`.
-    #[pyo3(get)]
-    xs: Py<PyAny>,
-    /// Controls, shape `(n, nu)`.
-    #[pyo3(get)]
-    us: Py<PyAny>,
-    /// Feedback gains of the last backward pass (eq. 12), shape `(n, nu, nx)`.
-    #[pyo3(get, name = "K")]
-    gains: Py<PyAny>,
-    /// Feed-forward terms (eq. 12), shape `(n, nu)`.
-    #[pyo3(get, name = "k")]
-    feedforward: Py<PyAny>,
-    /// Gains of the last covariance propagation (eq. 19), shape `(n, nu, nx)`.
-    #[pyo3(get)]
-    propagation_gains: Py<PyAny>,
-    /// Covariances `Sigma_0 .. Sigma_n` of the last tightening (eq. 19), shape `(n+1, nx, nx)`.
-    #[pyo3(get)]
-    covariances: Py<PyAny>,
-    /// Margins of every row of every knot (eq. 20), shape `(n, rows)`: the constraints' rows in
-    /// order, then two per control bound.
-    #[pyo3(get)]
-    margins: Py<PyAny>,
+    // The arrays (numpy arrays once read; see the getters).
+    xs: LazyArray,
+    us: LazyArray,
+    gains: LazyArray,
+    feedforward: LazyArray,
+    propagation_gains: LazyArray,
+    covariances: LazyArray,
+    margins: LazyArray,
     /// `"converged"`, `"max_iterations"`, `"regularization_limit"`, `"line_search_failed"`,
     /// `"infeasible"`, `"qp_failed"` or `"numerical_error"`.
     #[pyo3(get)]
@@ -1409,23 +1401,8 @@ pub struct SafeSolution {
     /// Wall time of the solve inside Rust (s).
     #[pyo3(get)]
     solve_time: f64,
-    /// The starts of a ``"portfolio"`` cold solve in the order they ran (empty otherwise), each a
-    /// dict: ``warm_up`` (``"augmented_lagrangian"``, ``"barrier"``, or ``"polish"`` for the
-    /// KKT/QP iterations from the kept solution), ``barrier_mu_init`` (the third start's initial
-    /// barrier weight, else ``None``), ``flip`` (for a flipped start, ``portfolio_flip``: the
-    /// index of the constraint whose other side it was steered to, else ``None``), ``mirror``
-    /// (``True`` for the start steered to the other side of every obstacle, ``portfolio_mirror``),
-    /// ``plan`` (``True`` for the starts steered round the obstacles on the sides of their
-    /// shortest path, ``portfolio_plan``), ``from_kept`` (``True`` for a start from the kept
-    /// solution's controls rather than the initial guess: the polish and the second planned
-    /// start), ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
-    /// on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its homotopy on the
-    /// kept solution's sides), ``"stalled"`` (stopped where, at the rate its cost fell, it
-    /// could not reach the kept cost within its iterations) or ``"abandoned"`` (stopped more
-    /// than ``portfolio_abandon`` above the kept cost, or where its dual bound was more than
-    /// ``portfolio_dual_bound`` above it).
-    #[pyo3(get)]
-    starts: Py<PyList>,
+    /// The starts as Python dicts, made at the first read (see the getter).
+    starts: PyOnceLock<Py<PyList>>,
     table: Table,
 }
 
@@ -1453,14 +1430,15 @@ const SAFE_SOLUTION_FIELDS: [&str; 17] = [
 impl SafeSolution {
     /// A solution from its pickled fields.
     pub(crate) fn from_state(d: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let py = d.py();
         Ok(Self {
-            xs: field(d, "xs")?,
-            us: field(d, "us")?,
-            gains: field(d, "K")?,
-            feedforward: field(d, "k")?,
-            propagation_gains: field(d, "propagation_gains")?,
-            covariances: field(d, "covariances")?,
-            margins: field(d, "margins")?,
+            xs: LazyArray::ready(py, field(d, "xs")?),
+            us: LazyArray::ready(py, field(d, "us")?),
+            gains: LazyArray::ready(py, field(d, "K")?),
+            feedforward: LazyArray::ready(py, field(d, "k")?),
+            propagation_gains: LazyArray::ready(py, field(d, "propagation_gains")?),
+            covariances: LazyArray::ready(py, field(d, "covariances")?),
+            margins: LazyArray::ready(py, field(d, "margins")?),
             status: field(d, "status")?,
             iterations: field(d, "iterations")?,
             discarded_iterations: field(d, "discarded_iterations")?,
@@ -1471,14 +1449,20 @@ impl SafeSolution {
             solve_time: field(d, "solve_time")?,
             table: Table::Text(field(d, "table")?),
             // Absent from the pickles of earlier versions.
-            starts: match d.get_item("starts")? {
-                Some(v) => v
-                    .cast_into::<PyList>()
-                    .map_err(|_| -> PyErr {
-                        crate::errors::invalid("state['starts']", "has the wrong type: not a list").into()
-                    })?
-                    .unbind(),
-                None => PyList::empty(d.py()).unbind(),
+            starts: {
+                let list = match d.get_item("starts")? {
+                    Some(v) => v
+                        .cast_into::<PyList>()
+                        .map_err(|_| -> PyErr {
+                            crate::errors::invalid("state['starts']", "has the wrong type: not a list").into()
+                        })?
+                        .unbind(),
+                    None => PyList::empty(py).unbind(),
+                };
+                let cell = PyOnceLock::new();
+                // (A new cell: setting it cannot fail.)
+                let _ = cell.set(py, list);
+                cell
             },
         })
     }
@@ -1486,13 +1470,13 @@ impl SafeSolution {
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         let values: [Bound<'py, PyAny>; 17] = [
-            self.xs.bind(py).clone(),
-            self.us.bind(py).clone(),
-            self.gains.bind(py).clone(),
-            self.feedforward.bind(py).clone(),
-            self.propagation_gains.bind(py).clone(),
-            self.covariances.bind(py).clone(),
-            self.margins.bind(py).clone(),
+            self.xs.get(py)?,
+            self.us.get(py)?,
+            self.gains.get(py)?,
+            self.feedforward.get(py)?,
+            self.propagation_gains.get(py)?,
+            self.covariances.get(py)?,
+            self.margins.get(py)?,
             self.status.clone().into_pyobject(py)?.into_any(),
             self.iterations.into_pyobject(py)?.into_any(),
             self.discarded_iterations.into_pyobject(py)?.into_any(),
@@ -1502,7 +1486,7 @@ impl SafeSolution {
             self.tightenings.into_pyobject(py)?.into_any(),
             self.solve_time.into_pyobject(py)?.into_any(),
             self.table.text().into_pyobject(py)?.into_any(),
-            self.starts.bind(py).clone().into_any(),
+            self.starts(py)?.into_any(),
         ];
         for (k, v) in SAFE_SOLUTION_FIELDS.iter().zip(values) {
             d.set_item(k, v)?;
@@ -1510,40 +1494,17 @@ impl SafeSolution {
         Ok(d)
     }
 
-    fn from_out(py: Python<'_>, o: Out, nx: usize, nu: usize) -> PyResult<Self> {
+    fn from_out(o: Out, nx: usize, nu: usize) -> Self {
         let n = o.n;
         let r = o.report;
-        let starts = PyList::empty(py);
-        for st in &r.starts {
-            let d = PyDict::new(py);
-            d.set_item(
-                "warm_up",
-                if st.warm_up == WarmUp::None {
-                    "polish"
-                } else {
-                    st.warm_up.as_str()
-                },
-            )?;
-            d.set_item("barrier_mu_init", st.barrier_mu_init)?;
-            d.set_item("flip", st.flip)?;
-            d.set_item("mirror", st.mirror)?;
-            d.set_item("plan", st.plan)?;
-            d.set_item("from_kept", st.from_kept)?;
-            d.set_item("iterations", st.iterations)?;
-            d.set_item("cost", st.cost)?;
-            d.set_item("max_violation", st.max_violation)?;
-            d.set_item("status", st.status.as_str())?;
-            d.set_item("outcome", st.outcome.as_str())?;
-            starts.append(d)?;
-        }
-        Ok(Self {
-            xs: rows_to_numpy(py, n + 1, nx, o.xs)?.unbind(),
-            us: rows_to_numpy(py, n, nu, o.us)?.unbind(),
-            gains: stack_to_numpy(py, n, nu, nx, o.gains)?.unbind(),
-            feedforward: rows_to_numpy(py, n, nu, o.feedforward)?.unbind(),
-            propagation_gains: stack_to_numpy(py, n, nu, nx, o.propagation_gains)?.unbind(),
-            covariances: stack_to_numpy(py, n + 1, nx, nx, o.covariances)?.unbind(),
-            margins: rows_to_numpy(py, n, o.rows, o.margins)?.unbind(),
+        Self {
+            xs: LazyArray::new(&[n + 1, nx], o.xs),
+            us: LazyArray::new(&[n, nu], o.us),
+            gains: LazyArray::new(&[n, nu, nx], o.gains),
+            feedforward: LazyArray::new(&[n, nu], o.feedforward),
+            propagation_gains: LazyArray::new(&[n, nu, nx], o.propagation_gains),
+            covariances: LazyArray::new(&[n + 1, nx, nx], o.covariances),
+            margins: LazyArray::new(&[n, o.rows], o.margins),
             status: r.status.as_str().to_string(),
             iterations: r.iterations,
             discarded_iterations: r.discarded_iterations,
@@ -1552,14 +1513,104 @@ impl SafeSolution {
             max_violation_tightened: r.max_violation_tightened,
             tightenings: r.tightenings,
             solve_time: r.solve_time.as_secs_f64(),
-            starts: starts.unbind(),
+            starts: PyOnceLock::new(),
             table: Table::Safe(Box::new(r)),
-        })
+        }
     }
+}
+
+/// The starts of a portfolio solve as a list of dicts (`SafeSolution.starts`).
+fn starts_list<'py>(py: Python<'py>, starts: &[safe_cddp::StartReport]) -> PyResult<Bound<'py, PyList>> {
+    use pyo3::intern;
+    let list = PyList::empty(py);
+    for st in starts {
+        let d = PyDict::new(py);
+        let warm_up = if st.warm_up == WarmUp::None {
+            "polish"
+        } else {
+            st.warm_up.as_str()
+        };
+        d.set_item(intern!(py, "warm_up"), warm_up)?;
+        d.set_item(intern!(py, "barrier_mu_init"), st.barrier_mu_init)?;
+        d.set_item(intern!(py, "flip"), st.flip)?;
+        d.set_item(intern!(py, "mirror"), st.mirror)?;
+        d.set_item(intern!(py, "plan"), st.plan)?;
+        d.set_item(intern!(py, "from_kept"), st.from_kept)?;
+        d.set_item(intern!(py, "iterations"), st.iterations)?;
+        d.set_item(intern!(py, "cost"), st.cost)?;
+        d.set_item(intern!(py, "max_violation"), st.max_violation)?;
+        d.set_item(intern!(py, "status"), st.status.as_str())?;
+        d.set_item(intern!(py, "outcome"), st.outcome.as_str())?;
+        list.append(d)?;
+    }
+    Ok(list)
 }
 
 #[pymethods]
 impl SafeSolution {
+    /// States `x_0 .. x_n`, shape `(n+1, nx)`.
+    #[getter]
+    fn xs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.xs.get(py)
+    }
+    /// Controls, shape `(n, nu)`.
+    #[getter]
+    fn us<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.us.get(py)
+    }
+    /// Feedback gains of the last backward pass (eq. 12), shape `(n, nu, nx)`.
+    #[getter(K)]
+    fn gains<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.gains.get(py)
+    }
+    /// Feed-forward terms (eq. 12), shape `(n, nu)`.
+    #[getter(k)]
+    fn feedforward<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.feedforward.get(py)
+    }
+    /// Gains of the last covariance propagation (eq. 19), shape `(n, nu, nx)`.
+    #[getter]
+    fn propagation_gains<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.propagation_gains.get(py)
+    }
+    /// Covariances `Sigma_0 .. Sigma_n` of the last tightening (eq. 19), shape `(n+1, nx, nx)`.
+    #[getter]
+    fn covariances<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.covariances.get(py)
+    }
+    /// Margins of every row of every knot (eq. 20), shape `(n, rows)`: the constraints' rows in
+    /// order, then two per control bound.
+    #[getter]
+    fn margins<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.margins.get(py)
+    }
+    /// The starts of a ``"portfolio"`` cold solve in the order they ran (empty otherwise), each a
+    /// dict: ``warm_up`` (``"augmented_lagrangian"``, ``"barrier"``, or ``"polish"`` for the
+    /// KKT/QP iterations from the kept solution), ``barrier_mu_init`` (the third start's initial
+    /// barrier weight, else ``None``), ``flip`` (for a flipped start, ``portfolio_flip``: the
+    /// index of the constraint whose other side it was steered to, else ``None``), ``mirror``
+    /// (``True`` for the start steered to the other side of every obstacle, ``portfolio_mirror``),
+    /// ``plan`` (``True`` for the starts steered round the obstacles on the sides of their
+    /// shortest path, ``portfolio_plan``), ``from_kept`` (``True`` for a start from the kept
+    /// solution's controls rather than the initial guess: the polish and the second planned
+    /// start), ``iterations``, ``cost``, ``max_violation`` (tightened rows), ``status`` and ``outcome``: ``"kept"``, ``"polished"`` (kept until the polish went
+    /// on from it), ``"discarded"``, ``"same_side"`` (stopped at the end of its homotopy on the
+    /// kept solution's sides), ``"stalled"`` (stopped where, at the rate its cost fell, it
+    /// could not reach the kept cost within its iterations) or ``"abandoned"`` (stopped more
+    /// than ``portfolio_abandon`` above the kept cost, or where its dual bound was more than
+    /// ``portfolio_dual_bound`` above it).
+    #[getter]
+    fn starts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let list = self.starts.get_or_try_init(py, || -> PyResult<Py<PyList>> {
+            let starts = match &self.table {
+                Table::Safe(r) => r.starts.as_slice(),
+                // (Unpickled solutions come with their list.)
+                _ => &[],
+            };
+            Ok(starts_list(py, starts)?.unbind())
+        })?;
+        Ok(list.bind(py).clone())
+    }
     /// Whether the solve converged.
     #[getter]
     fn converged(&self) -> bool {
@@ -2123,7 +2174,5 @@ fn solve_batch_safe(
             with_dims!(nx, nu, safe_batch_impl(ps, &specs, t, settings, threads))
         })
     })?;
-    outs.into_iter()
-        .map(|o| SafeSolution::from_out(py, o, nx, nu))
-        .collect()
+    Ok(outs.into_iter().map(|o| SafeSolution::from_out(o, nx, nu)).collect())
 }

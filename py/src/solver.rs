@@ -10,7 +10,7 @@ use ddp_core::{
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::convert::{check_allocation, finite_arr, row_major, rows_to_numpy, stack_to_numpy, vec_to_numpy, Arr};
+use crate::convert::{check_allocation, finite_arr, flatten_matrices, flatten_vectors, rows_to_numpy, Arr, LazyArray};
 use crate::dims::{problem_of, solver_mut_of, solver_of, AnyProblem, AnySolver, Dispatch, Pair};
 use crate::errors::{invalid, CoreError, CoreResult};
 use crate::pickle::{equal_values, field, module_attr, Table};
@@ -107,10 +107,10 @@ where
         .collect();
     let report = report.clone();
     Ok(SolveOut {
-        xs: s.xs().iter().flat_map(|x| x.iter().copied()).collect(),
-        us: s.us().iter().flat_map(|u| u.iter().copied()).collect(),
-        gains: s.gains().iter().flat_map(row_major).collect(),
-        feedforward: s.feedforward().iter().flat_map(|k| k.iter().copied()).collect(),
+        xs: flatten_vectors(s.xs(), s.dims().nx()),
+        us: flatten_vectors(s.us(), s.dims().nu()),
+        gains: flatten_matrices(s.gains()),
+        feedforward: flatten_vectors(s.feedforward(), s.dims().nu()),
         status,
         iterations,
         cost,
@@ -474,7 +474,7 @@ impl Solver {
         // An exception raised by a Python callable model is the solve's error.
         crate::callable::raise_pending()?;
         let out = out?;
-        Solution::from_out(py, out, nx, nu, self.horizon)
+        Ok(Solution::from_out(out, nx, nu, self.horizon))
     }
 
     /// Receding horizon: drops the first knot of the last solution and repeats the last control,
@@ -555,18 +555,11 @@ impl Solver {
 /// The feedback law around the solution is `u_k = us[k] + K[k] @ (x_k - xs[k])`.
 #[pyclass(module = "ddpkit._ddpkit", frozen)]
 pub struct Solution {
-    /// States `x_0 .. x_N`, shape `(N+1, nx)`.
-    #[pyo3(get)]
-    xs: Py<PyAny>,
-    /// Controls `u_0 .. u_{N-1}`, shape `(N, nu)`.
-    #[pyo3(get)]
-    us: Py<PyAny>,
-    /// Feedback gains `K_k`, shape `(N, nu, nx)`.
-    #[pyo3(get, name = "K")]
-    gains: Py<PyAny>,
-    /// Feed-forward terms `k_k` of the last backward pass, shape `(N, nu)`.
-    #[pyo3(get, name = "k")]
-    feedforward: Py<PyAny>,
+    // The arrays (numpy arrays once read; see the getters).
+    xs: LazyArray,
+    us: LazyArray,
+    gains: LazyArray,
+    feedforward: LazyArray,
     /// How the solve ended: `"converged"`, `"max_iterations"`, `"regularization_limit"`,
     /// `"line_search_failed"` or `"numerical_error"`.
     #[pyo3(get)]
@@ -600,9 +593,7 @@ pub struct Solution {
     /// multiple-shooting solve.
     #[pyo3(get)]
     defect: f64,
-    /// Cost of the initial rollout and after every accepted step.
-    #[pyo3(get)]
-    cost_history: Py<PyAny>,
+    cost_history: LazyArray,
     /// The solver's report, kept to print the iteration table on demand.
     table: Table,
 }
@@ -630,11 +621,12 @@ const SOLUTION_FIELDS: [&str; 16] = [
 impl Solution {
     /// A solution from its pickled fields.
     pub(crate) fn from_state(d: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let py = d.py();
         Ok(Self {
-            xs: field(d, "xs")?,
-            us: field(d, "us")?,
-            gains: field(d, "K")?,
-            feedforward: field(d, "k")?,
+            xs: LazyArray::ready(py, field(d, "xs")?),
+            us: LazyArray::ready(py, field(d, "us")?),
+            gains: LazyArray::ready(py, field(d, "K")?),
+            feedforward: LazyArray::ready(py, field(d, "k")?),
             status: field(d, "status")?,
             iterations: field(d, "iterations")?,
             cost: field(d, "cost")?,
@@ -645,7 +637,7 @@ impl Solution {
             forward_passes: field(d, "forward_passes")?,
             solve_time: field(d, "solve_time")?,
             defect: field(d, "defect")?,
-            cost_history: field(d, "cost_history")?,
+            cost_history: LazyArray::ready(py, field(d, "cost_history")?),
             table: Table::Text(field(d, "table")?),
         })
     }
@@ -653,10 +645,10 @@ impl Solution {
     fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         let values: [Bound<'py, PyAny>; 16] = [
-            self.xs.bind(py).clone(),
-            self.us.bind(py).clone(),
-            self.gains.bind(py).clone(),
-            self.feedforward.bind(py).clone(),
+            self.xs.get(py)?,
+            self.us.get(py)?,
+            self.gains.get(py)?,
+            self.feedforward.get(py)?,
             self.status.clone().into_pyobject(py)?.into_any(),
             self.iterations.into_pyobject(py)?.into_any(),
             self.cost.into_pyobject(py)?.into_any(),
@@ -667,7 +659,7 @@ impl Solution {
             self.forward_passes.into_pyobject(py)?.into_any(),
             self.solve_time.into_pyobject(py)?.into_any(),
             self.defect.into_pyobject(py)?.into_any(),
-            self.cost_history.bind(py).clone(),
+            self.cost_history.get(py)?,
             self.table.text().into_pyobject(py)?.into_any(),
         ];
         for (k, v) in SOLUTION_FIELDS.iter().zip(values) {
@@ -679,12 +671,13 @@ impl Solution {
 
 impl Solution {
     /// The Python object of a solve's plain-data results (`n` knots).
-    fn from_out(py: Python<'_>, out: SolveOut, nx: usize, nu: usize, n: usize) -> PyResult<Self> {
-        Ok(Solution {
-            xs: rows_to_numpy(py, n + 1, nx, out.xs)?.unbind(),
-            us: rows_to_numpy(py, n, nu, out.us)?.unbind(),
-            gains: stack_to_numpy(py, n, nu, nx, out.gains)?.unbind(),
-            feedforward: rows_to_numpy(py, n, nu, out.feedforward)?.unbind(),
+    fn from_out(out: SolveOut, nx: usize, nu: usize, n: usize) -> Self {
+        let history = out.cost_history.len();
+        Solution {
+            xs: LazyArray::new(&[n + 1, nx], out.xs),
+            us: LazyArray::new(&[n, nu], out.us),
+            gains: LazyArray::new(&[n, nu, nx], out.gains),
+            feedforward: LazyArray::new(&[n, nu], out.feedforward),
             status: out.status.to_string(),
             iterations: out.iterations,
             cost: out.cost,
@@ -695,14 +688,39 @@ impl Solution {
             forward_passes: out.forward_passes,
             solve_time: out.solve_time,
             defect: out.defect,
-            cost_history: vec_to_numpy(py, out.cost_history).unbind(),
+            cost_history: LazyArray::new(&[history], out.cost_history),
             table: Table::Core(Box::new(out.report)),
-        })
+        }
     }
 }
 
 #[pymethods]
 impl Solution {
+    /// States `x_0 .. x_N`, shape `(N+1, nx)`.
+    #[getter]
+    fn xs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.xs.get(py)
+    }
+    /// Controls `u_0 .. u_{N-1}`, shape `(N, nu)`.
+    #[getter]
+    fn us<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.us.get(py)
+    }
+    /// Feedback gains `K_k`, shape `(N, nu, nx)`.
+    #[getter(K)]
+    fn gains<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.gains.get(py)
+    }
+    /// Feed-forward terms `k_k` of the last backward pass, shape `(N, nu)`.
+    #[getter(k)]
+    fn feedforward<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.feedforward.get(py)
+    }
+    /// Cost of the initial rollout and after every accepted step.
+    #[getter]
+    fn cost_history<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.cost_history.get(py)
+    }
     /// Whether the solve converged.
     #[getter]
     fn converged(&self) -> bool {
@@ -835,5 +853,5 @@ pub fn solve_batch(
     let locks = &batch.locks;
     let outs =
         py.detach(|| crate::batch::read_all(locks, |ps| with_dims!(nx, nu, batch_impl(ps, settings, threads))))?;
-    outs.into_iter().map(|o| Solution::from_out(py, o, nx, nu, n)).collect()
+    Ok(outs.into_iter().map(|o| Solution::from_out(o, nx, nu, n)).collect())
 }

@@ -451,3 +451,21 @@ def test_no_start_ends_where_rows_off_their_boundary_hold_multipliers() -> None:
     barrier = sol.starts[1]
     assert barrier["warm_up"] == "barrier" and barrier["barrier_mu_init"] is None
     assert barrier["status"] == "converged" and barrier["cost"] <= fatrop * (1 + 1e-6)
+
+
+def test_every_timed_solve_starts_after_the_allocator_is_settled(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The deferred frees of one solver's solve are paid outside the next one's timer
+    # (`compare.settle_allocator`), so the interleaved timings do not depend on the order.
+    import compare
+
+    calls: list[str] = []
+    monkeypatch.setattr(compare, "settle_allocator", lambda: calls.append("settle"))
+
+    def solve() -> tuple[int, float, None]:
+        calls.append("solve")
+        return 1, 0.0, None
+
+    entry = compare.Entry("x", solve)
+    entry.run_once()
+    entry.run_once()
+    assert calls == ["settle", "solve", "settle", "solve"] and len(entry.wall) == 2

@@ -202,6 +202,26 @@ def test_safe_solver_and_safe_solution_pickle() -> None:
     assert other != solver
 
 
+def test_result_arrays_are_made_at_the_first_read_and_kept() -> None:
+    # A solution's arrays become numpy arrays when first read; every later read, and pickling,
+    # gives that same array (an edit to it stays).
+    problem = p1()
+    n, nx, nu = problem.horizon, problem.nx, problem.nu
+    plain = ddpkit.Solver(problem, max_iterations=30).solve()
+    safe = ddpkit.SafeCddpSolver(problem, [ddpkit.Circle((-0.5, -0.6), 0.2)], max_iterations=60).solve()
+    shapes = {"xs": (n + 1, nx), "us": (n, nu), "K": (n, nu, nx), "k": (n, nu)}
+    safe_shapes = {**shapes, "propagation_gains": (n, nu, nx), "covariances": (n + 1, nx, nx), "margins": (n, 5)}
+    for sol, expected in ((plain, {**shapes, "cost_history": (plain.iterations + 1,)}), (safe, safe_shapes)):
+        for name, shape in expected.items():
+            a = getattr(sol, name)
+            assert isinstance(a, np.ndarray) and a.shape == shape and a.dtype == np.float64, name
+            assert getattr(sol, name) is a, name
+        sol.us[0, 0] += 1.0
+        np.testing.assert_array_equal(roundtrip(sol).us, sol.us)
+    assert isinstance(safe.starts, list) and safe.starts is safe.starts
+    assert safe.max_violation <= 1e-6 and safe.converged
+
+
 def test_mpc_and_episode_pickle_and_run_the_same_episodes() -> None:
     sigma = 1e-5 * np.eye(3)
     constraints = [ddpkit.Circle((-0.5, -0.6), 0.2)]

@@ -80,6 +80,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "py" / "examples"))
 from _common import cartpole_ode  # noqa: E402
 
 import ddpkit  # noqa: E402
+from compare import settle_allocator  # noqa: E402
 
 #: Weight of Crocoddyl's squared-hinge obstacle penalty (FDDP has no inequality constraints).
 CROC_PENALTY = 1e4
@@ -429,6 +430,7 @@ def run(m: Model, repeats: int, crocoddyl: Any, croc_repeats: int, warm_up: str 
         for e in entries:
             if e.kind == "crocoddyl" and i >= croc_repeats:
                 continue
+            settle_allocator()  # the solve before it pays for its own frees (compare.py)
             t = time.perf_counter()
             out = e.solve()
             e.wall.append(time.perf_counter() - t)

@@ -19,7 +19,7 @@
 //! (`Settings::portfolio_threads`); `THIRD_MU=0 POLISH=0` is the two-start portfolio. `AL_RHO`,
 //! `AL_RHO_MAX`, `AL_RHO_FACTOR`, `AL_INNER`, `AL_TOL`, `AL_SWITCH` (`al_switch_violation`) set
 //! the augmented Lagrangian, `KKT_STEP_MIN` `kkt_step_min`, `MAX_IT` `max_iterations` (`family.py`
-//! solves with 500, the library's default is 200), `STALL` `portfolio_stall`, `ABANDON`, `ABANDON_AFTER` `portfolio_abandon` (0: none), `portfolio_abandon_after`, `DUAL_BOUND` `portfolio_dual_bound` (negative: none), `EPS` `active_threshold`, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
+//! solves with 500, the library's default is 200), `STALL` `portfolio_stall`, `ABANDON`, `ABANDON_AFTER`, `ABANDON_RUN` `portfolio_abandon` (0: none), `portfolio_abandon_after`, `portfolio_abandon_run`, `DUAL_BOUND` `portfolio_dual_bound` (negative: none), `EPS` `active_threshold`, `INNER_PROGRESS`, `INNER_PROGRESS_BELOW` its inner solves'
 //! `al_inner_progress`, `al_inner_progress_below`, `NEAR_MARGIN`, `NEAR_RHO` `al_near_margin`,
 //! `al_near_rho`, `NEAR_CRAWL`, `NEAR_CRAWL_CHANGE` `al_near_crawl`, `al_near_crawl_change`; `LS_MIN`, `LS_FACTOR` the line search's `step_min`, `step_factor`; `REG_MIN`, `REG_FACTOR` the regularisation's `mu_min`, `mu_factor`; `FUNNEL` `barrier_funnel` (`inf`: none); `BARRIER_MU`, `BARRIER_FACTOR`,
 //! `BARRIER_FINAL`, `BARRIER_INNER`, `BARRIER_RELAX` the homotopy's `barrier_mu_init`, `barrier_mu_factor`, `barrier_mu_final`,
@@ -198,6 +198,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("ABANDON_AFTER") {
         s.portfolio_abandon_after = v as usize;
+    }
+    if let Some(v) = env("ABANDON_RUN") {
+        s.portfolio_abandon_run = v as usize;
     }
     if let Some(v) = env("EPS") {
         s.active_threshold = v;

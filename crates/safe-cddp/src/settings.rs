@@ -292,7 +292,7 @@ pub struct Settings {
     /// [`Settings::portfolio_mirror`]) stops, discarded ([`StartOutcome::Abandoned`]), once it
     /// is past [`Settings::portfolio_abandon_after`] iterations after its guided ones at a
     /// trajectory, feasible or not, whose cost is more than this fraction above the kept
-    /// solution's. Its guide has taken it round the other side of an obstacle, and by then what
+    /// solution's, and has been for [`Settings::portfolio_abandon_run`] iterations in a row. Its guide has taken it round the other side of an obstacle, and by then what
     /// is left to it are mostly the small moves of a path that already clears them; the guided
     /// starts that find a better optimum end below the kept cost or come near it sooner. The
     /// third start is left out: past its barrier homotopy it may still be feasible at hundreds
@@ -307,6 +307,16 @@ pub struct Settings {
     pub portfolio_abandon: Option<f64>,
     /// [`Settings::portfolio_abandon`]: the iterations a start runs before the test applies.
     pub portfolio_abandon_after: usize,
+    /// [`Settings::portfolio_abandon`]: the iterations in a row a start's cost must stay above
+    /// the test's bound before it stops (at least 1). A guided start that leaves an infeasible
+    /// stretch for a feasible path jumps far above the kept cost and then falls fast:
+    /// `unicycle-s17-i1-a0`'s second flipped start, stopped at 21x the kept cost by a test of the
+    /// single iteration, runs on to 1.5675, below the peers' 1.5711 and the kept 2.34, in 64 more
+    /// iterations. With the default 20 the family replays of eighteen seeds end as with 1 but
+    /// there (a miss of 49 % becomes a match) and on one problem 0.1 % lower, for 1.002x the
+    /// iterations; 10 keeps the miss (`bench/peers/README.md`, "A guided start's jump to
+    /// feasibility").
+    pub portfolio_abandon_run: usize,
     /// [`WarmUp::Portfolio`]: a guided or the third start ([`Settings::portfolio_flip`],
     /// [`Settings::portfolio_plan`], [`Settings::portfolio_mirror`],
     /// [`Settings::portfolio_third_mu`]) stops, discarded ([`StartOutcome::Abandoned`]), at the
@@ -475,6 +485,7 @@ impl Default for Settings {
             portfolio_stall: 10,
             portfolio_abandon: Some(0.3),
             portfolio_abandon_after: 45,
+            portfolio_abandon_run: 20,
             portfolio_dual_bound: Some(0.01),
             al_rho_init: 10.0,
             al_rho_factor: 10.0,
@@ -704,6 +715,9 @@ impl Settings {
         }
         if self.portfolio_flip_guide == 0 {
             return Err(Error::invalid("settings.portfolio_flip_guide", "must be at least 1"));
+        }
+        if self.portfolio_abandon_run == 0 {
+            return Err(Error::invalid("settings.portfolio_abandon_run", "must be at least 1"));
         }
         if self.portfolio_plan == Some(0) {
             return Err(Error::invalid(

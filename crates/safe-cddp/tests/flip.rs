@@ -511,6 +511,54 @@ fn a_start_far_above_the_kept_cost_is_abandoned() {
     }
 }
 
+/// Problem 1 of the unicycle family, seed 17 (`bench/results/family_s17_210_dual.json`).
+const UNICYCLE_S17_I1: &str = r#"{"name": "unicycle-s17-i1-a0", "model": "unicycle", "dt": 0.0862, "N": 108, "x0": [0.0, 0.0, -2.0687], "cost": {"kind": "quad_goal", "x_goal": [-1.0871, -3.5257, -1.9505], "R": [0.1, 0.1], "Qf": [100.0, 100.0, 10.0]}, "u_min": [-1.4775, -0.7444], "u_max": [1.4775, 0.7444], "obstacles": [[-1.0979, -3.0103, 0.2671], [-0.3974, -1.3135, 0.2805], [-0.6902, -3.2459, 0.2269], [-0.3633, -1.6982, 0.3207]]}"#;
+/// IPOPT's cost on it (FATROP fails, at 14.03).
+const UNICYCLE_S17_I1_IPOPT: f64 = 1.5711336110221323;
+
+#[test]
+fn a_guided_start_that_jumps_to_a_feasible_path_is_not_abandoned_at_the_jump() {
+    // The second flipped start spends about 110 iterations infeasible near the peers' side of the
+    // obstacles, then jumps to a feasible path at 20x the kept cost (2.34) and falls to 1.5675 in
+    // 64 more: stopped at the jump by a test of one iteration, not by one of 20 in a row.
+    let solve = |run: usize| {
+        let bp = BenchmarkProblem::from_json(UNICYCLE_S17_I1).unwrap();
+        let (problem, constraints) = bp.unicycle().unwrap();
+        let settings = Settings {
+            max_iterations: 500,
+            portfolio_abandon_run: run,
+            ..Settings::default()
+        };
+        let mut s = SafeCddpSolver::new(&problem, constraints, settings).unwrap();
+        s.solve(&problem).unwrap().clone()
+    };
+    let (default, one) = (solve(Settings::default().portfolio_abandon_run), solve(1));
+    assert!(default.max_violation <= 1e-6, "{}", default.table());
+    assert!(default.cost < UNICYCLE_S17_I1_IPOPT, "{}", default.table());
+    let kept = kept_start(&default);
+    assert_eq!(kept.flip, Some(1), "{}", default.table());
+    check_totals(&default);
+    // With a single iteration above the bound the same start is abandoned, at far above the
+    // kept cost, and a poorer solution is kept.
+    let stopped = one.starts.iter().find(|s| s.flip == Some(1)).unwrap();
+    assert_eq!(stopped.outcome, StartOutcome::Abandoned, "{}", one.table());
+    assert!(
+        stopped.cost > 10.0 * one.cost && stopped.iterations < kept.iterations,
+        "{}",
+        one.table()
+    );
+    assert!(one.cost > 1.4 * UNICYCLE_S17_I1_IPOPT, "{}", one.table());
+    // 0 is rejected by name.
+    let bp = BenchmarkProblem::from_json(UNICYCLE_S17_I1).unwrap();
+    let (problem, constraints) = bp.unicycle().unwrap();
+    let bad = Settings {
+        portfolio_abandon_run: 0,
+        ..Settings::default()
+    };
+    let err = SafeCddpSolver::new(&problem, constraints, bad).err().unwrap();
+    assert!(err.to_string().contains("portfolio_abandon_run"), "{err}");
+}
+
 /// Problem 15 of the car family, seed 14 (`bench/results/family_s14_210_idle.json`): the third
 /// start (the barrier from `mu = 3e-3`) ends its homotopy on a feasible path at 210x the cost
 /// of the kept solution, then comes down to 1.16646, and the polish from it to 1.16533, 2.8e-4

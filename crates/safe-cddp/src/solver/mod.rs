@@ -922,6 +922,8 @@ where
             // in the KKT/QP iterations tightens after its first iteration (Algorithm 1, line 22).
             let mut since_tightening = usize::MAX / 2;
             let mut stall = Stall::new(self.core.cost);
+            // Iterations in a row above `portfolio_abandon`'s gate.
+            let mut above = 0;
             for done in 1..=self.settings.max_iterations {
                 let outcome = self.iterate(problem)?;
                 // Its multiplier update found the start's dual bound above the kept cost
@@ -953,10 +955,15 @@ where
                     let s = &self.settings;
                     let feasible = self.it.violation_max <= s.constraint_tolerance;
                     // A guided start that, well into its iterations on the side its guide
-                    // chose, is far above the kept cost, feasible or not
-                    // (`Settings::portfolio_abandon`).
+                    // chose, has stayed far above the kept cost, feasible or not
+                    // (`Settings::portfolio_abandon`, `portfolio_abandon_run`).
                     if let Some(fraction) = s.portfolio_abandon.filter(|_| self.portfolio.guided) {
-                        if done > s.portfolio_abandon_after && self.core.cost > kept + fraction * kept.abs() {
+                        above = if self.core.cost > kept + fraction * kept.abs() {
+                            above + 1
+                        } else {
+                            0
+                        };
+                        if done > s.portfolio_abandon_after && above >= s.portfolio_abandon_run {
                             self.portfolio.stopped = Some(StartOutcome::Abandoned);
                             break;
                         }
